@@ -1,0 +1,803 @@
+r"""Recursive estimators: RLS, sliding-window RLS (TLSM) and Kalman random walk.
+
+Each class owns its state (one flat float64 vector, see
+:mod:`adaptid._kernels._ud`), validates input and calls one compiled kernel
+per call: ``update`` runs one step, ``run`` a whole record, ``run_batched``
+B independent records in parallel. ``run`` gives bit-for-bit the same result
+as N calls of ``update`` (the two share one compiled step).
+"""
+
+from __future__ import annotations
+
+import copy as _copy
+import warnings
+
+import numpy as np
+
+from . import _config, _kernels
+from ._exceptions import CovarianceWindupWarning, DefinitenessLossWarning
+from ._trajectory import Trajectory
+from ._validation import (
+    as_float_array,
+    check_choice,
+    check_int,
+    check_scalar,
+    check_spd,
+    param_error,
+)
+
+__all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS"]
+
+_STATE_FORMAT = 1
+_NAN_POLICIES = ("raise", "skip")
+
+
+def _ud_from_P(P: np.ndarray):
+    """Upper U-D factors of an SPD matrix: P = U diag(D) Uᵀ, U unit upper.
+
+    Computed from the Cholesky factor of the reversed matrix, so no inverse.
+    """
+    n = P.shape[0]
+    J = P[::-1, ::-1]
+    L = np.linalg.cholesky(J)          # J = L Lᵀ
+    Ut = L[::-1, ::-1]                 # P = Ut Utᵀ, Ut upper triangular
+    d = np.diag(Ut).copy()
+    U = Ut / d                         # unit upper
+    U[np.tril_indices(n, -1)] = 0.0
+    np.fill_diagonal(U, 1.0)
+    return U, d * d
+
+
+def _P_from_ud(U, D):
+    return U @ (D[..., :, None] * np.swapaxes(U, -1, -2))
+
+
+class _RecursiveEstimator:
+    """Common machinery; see the subclasses for the algorithms."""
+
+    _kind = "base"
+
+    def __init__(self, n_params, *, theta0=None, P0=1e4, nan_policy="raise",
+                 n_outputs=None):
+        n = check_int(n_params, "n_params", low=1)
+        self.nan_policy = check_choice(nan_policy, "nan_policy", _NAN_POLICIES)
+        if n_outputs is not None:
+            n_outputs = check_int(n_outputs, "n_outputs", low=1)
+        if theta0 is None:
+            p = n_outputs or 1
+            th0 = np.zeros((n, p))
+            single = n_outputs is None
+        else:
+            th0 = as_float_array(theta0, "theta0", ndim=(1, 2), copy=True)
+            if th0.shape[0] != n:
+                raise param_error("theta0", f"of length n_params={n}", f"<shape {th0.shape}>")
+            single = th0.ndim == 1
+            th0 = th0.reshape(n, -1)
+            if n_outputs is not None and th0.shape[1] != n_outputs:
+                raise param_error("theta0", f"of shape ({n}, {n_outputs}) for n_outputs={n_outputs}",
+                                  f"<shape {th0.shape}>")
+        self.n_params = n
+        self.n_outputs = th0.shape[1]
+        self._single = single
+        self.theta0 = th0
+        self.P0 = check_spd(P0, "P0", n)
+        self._U0, self._D0 = _ud_from_P(self.P0)
+        self._kern = _kernels.get(n)
+        self._e = np.empty(self.n_outputs)
+        self._ybuf = np.empty(1)
+        self.reset()
+
+    # ---------------------------------------------------------------- state
+    def _state_length(self) -> int:
+        n, p = self.n_params, self.n_outputs
+        return n * p + n * n + n
+
+    def _fill_initial(self, S):
+        n, p = self.n_params, self.n_outputs
+        S[: n * p] = self.theta0.ravel()
+        S[n * p: n * p + n * n] = self._U0.ravel()
+        S[n * p + n * n: n * p + n * n + n] = self._D0
+
+    def reset(self):
+        """Return to the prior (θ₀, P₀) and forget all data and any batch axis."""
+        self._S = np.zeros(self._state_length())
+        self._fill_initial(self._S)
+        self._batch = None
+        self.n_updates = 0
+        self.n_skipped = 0
+        self._windup_warned = False
+        return self
+
+    def _theta_view(self, S):
+        n, p = self.n_params, self.n_outputs
+        th = S[..., : n * p].reshape(S.shape[:-1] + (n, p))
+        return th[..., 0] if self._single else th
+
+    def _ud_views(self, S):
+        n, p = self.n_params, self.n_outputs
+        U = S[..., n * p: n * p + n * n].reshape(S.shape[:-1] + (n, n))
+        D = S[..., n * p + n * n: n * p + n * n + n]
+        return U, D
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Current estimate, shape (n,) or (n, p); (B, n[, p]) after ``run_batched``."""
+        return self._theta_view(self._S).copy()
+
+    @property
+    def P(self) -> np.ndarray:
+        """Current covariance (n, n), or (B, n, n), formed from its U-D factors."""
+        U, D = self._ud_views(self._S)
+        return _P_from_ud(U, D)
+
+    @property
+    def batch_size(self):
+        """B after ``run_batched``, else None."""
+        return self._batch
+
+    # ------------------------------------------------------------ validation
+    def _check_single(self, what):
+        if self._batch is not None:
+            raise ValueError(
+                f"{what} is for a single stream, but this estimator holds {self._batch} "
+                "streams after run_batched; use run_batched, or reset() first")
+
+    def _phi(self, phi):
+        n = self.n_params
+        if type(phi) is np.ndarray and phi.dtype == np.float64 and phi.shape == (n,) \
+                and phi.flags.c_contiguous:
+            return phi
+        return as_float_array(phi, "phi", shape=(n,), finite=False)
+
+    def _y(self, y):
+        p = self.n_outputs
+        if self._single:
+            if type(y) is float:
+                self._ybuf[0] = y
+                return self._ybuf
+            arr = as_float_array(y, "y", ndim=(0, 1), finite=False)
+            if arr.size != 1:
+                raise param_error("y", "a scalar for a single-output estimator", f"<shape {arr.shape}>")
+            self._ybuf[0] = arr.reshape(())
+            return self._ybuf
+        return as_float_array(y, "y", shape=(p,), finite=False)
+
+    @staticmethod
+    def _weight(weight):
+        if weight == 1.0 and type(weight) in (float, int):
+            return 1.0
+        return check_scalar(weight, "weight", low=0.0)
+
+    def _nonfinite_step(self, phi, y):
+        if self.nan_policy == "raise":
+            arg = "phi" if not np.isfinite(phi).all() else "y"
+            raise param_error(arg, "finite (no NaN or inf) with nan_policy='raise'",
+                              "<a non-finite value>")
+        self.n_skipped += 1
+
+    def _run_arrays(self, Phi, y, weights, batched):
+        """Validate Phi, y, weights of run / run_batched; returns (Phi, Y, w)."""
+        n, p = self.n_params, self.n_outputs
+        lead = 2 if batched else 1
+        Phi = as_float_array(Phi, "Phi", ndim=lead + 1, finite=False)
+        if Phi.shape[-1] != n:
+            raise param_error("Phi", f"of shape ({'B, ' if batched else ''}N, {n}) for n_params={n}",
+                              f"<shape {Phi.shape}>")
+        shape_N = Phi.shape[:-1]
+        Y = as_float_array(y, "y", ndim=(lead, lead + 1), finite=False)
+        if Y.ndim == lead:
+            if not self._single and p != 1:
+                raise param_error("y", f"of shape {shape_N + (p,)} for n_outputs={p}",
+                                  f"<shape {Y.shape}>")
+            Y = Y.reshape(Y.shape + (1,))
+        elif self._single:
+            raise param_error("y", f"of shape {shape_N} (single output; construct with "
+                              "n_outputs=p for several outputs)", f"<shape {Y.shape}>")
+        if Y.shape != shape_N + (p,):
+            want = shape_N if self._single else shape_N + (p,)
+            raise param_error("y", f"of shape {want} to match Phi", f"<shape {Y.shape[:lead] if self._single else Y.shape}>")
+        if self.nan_policy == "raise":
+            for name, arr in (("Phi", Phi), ("y", Y)):
+                if not np.isfinite(arr).all():
+                    idx = np.argwhere(~np.isfinite(arr))[0]
+                    raise param_error(name, "finite (no NaN or inf) with nan_policy='raise'",
+                                      f"<a non-finite value at sample {tuple(int(i) for i in idx[:lead])}>")
+        w = self._per_sample(weights, "weights", shape_N, low=0.0)
+        return Phi, Y, w
+
+    @staticmethod
+    def _per_sample(value, name, shape_N, *, low=None, high=None, low_open=False, default=1.0):
+        """A scalar or per-sample array, broadcast (without copying) to shape_N."""
+        if value is None:
+            value = default
+        if np.ndim(value) == 0:
+            v = check_scalar(value, name, low=low, high=high, low_open=low_open)
+            return np.broadcast_to(np.float64(v), shape_N)
+        arr = as_float_array(value, name)
+        try:
+            arr = np.broadcast_to(arr, shape_N)
+        except ValueError:
+            raise param_error(name, f"a scalar or an array broadcastable to {shape_N}",
+                              f"<shape {arr.shape}>") from None
+        if (low is not None and (arr < low).any()) or (low_open and (arr == low).any()) or \
+                (high is not None and (arr > high).any()):
+            lo = "(" if low_open else "["
+            raise param_error(name, f"in {lo}{low}, {high if high is not None else 'inf'}]",
+                              "<values outside that range>")
+        return arr
+
+    def _prepare_batch(self, B):
+        if self._batch is None:
+            S = np.repeat(self._S[None, :], B, axis=0)
+        elif self._batch == B:
+            S = self._S.copy()
+        else:
+            raise param_error("Phi", f"of {self._batch} streams to continue this batched estimator",
+                              f"<{B} streams>")
+        return S
+
+    def _finish(self, Th, E, skipped, batched, store, n_rebuilds=0):
+        if self._single:
+            Th = Th[..., 0]
+            E = E[..., 0]
+        if not store:
+            Th = Th[..., :0, :] if self._single else Th[..., :0, :, :]
+        return Trajectory(theta=Th, error=E, skipped=skipped, n_rebuilds=int(n_rebuilds))
+
+    def _alloc(self, shape_N, store):
+        n, p = self.n_params, self.n_outputs
+        N = shape_N[-1]
+        lead = shape_N[:-1]
+        Th = np.empty(lead + ((N if store else 0), n, p))
+        E = np.empty(shape_N + (p,))
+        skipped = np.zeros(shape_N, dtype=np.bool_)
+        return Th, E, skipped
+
+    def _count(self, skipped):
+        """Single stream: samples used and skipped. Batched: time steps, and all skips."""
+        k = int(np.count_nonzero(skipped))
+        self.n_skipped += k
+        self.n_updates += skipped.shape[-1] if skipped.ndim == 2 else skipped.size - k
+
+    def _warn_nonpositive(self, where):
+        if getattr(self, "_windup_warned", False):
+            return  # once per episode: reset() re-arms the warning
+        self._windup_warned = True
+        warnings.warn(
+            f"{type(self).__name__}: the covariance factor lost positivity or overflowed "
+            f"at sample {where} (covariance windup: λ < 1 with a direction not excited?)",
+            CovarianceWindupWarning, stacklevel=3)
+
+    # ------------------------------------------------------------ prediction
+    def predict(self, phi):
+        r"""Predicted output :math:`\hat y = \varphi^T\hat\theta`.
+
+        Parameters
+        ----------
+        phi : array_like, shape (n,) or (N, n); (B, n) or (B, N, n) when batched
+
+        Returns
+        -------
+        float or ndarray
+            Shape (), (N,) [or with a trailing p axis for several outputs].
+        """
+        n = self.n_params
+        theta = self._theta_view(self._S)
+        if self._batch is None:
+            phi = as_float_array(phi, "phi", ndim=(1, 2))
+            if phi.shape[-1] != n:
+                raise param_error("phi", f"of shape (n,) or (N, n) with n={n}", f"<shape {phi.shape}>")
+            out = phi @ theta
+            return float(out) if out.ndim == 0 else out
+        phi = as_float_array(phi, "phi", ndim=(2, 3))
+        if phi.shape[0] != self._batch or phi.shape[-1] != n:
+            raise param_error("phi", f"of shape (B, n) or (B, N, n) with B={self._batch}, n={n}",
+                              f"<shape {phi.shape}>")
+        if self._single:
+            return np.einsum("b...i,bi->b...", phi, theta)
+        return np.einsum("b...i,bij->b...j", phi, theta)
+
+    # ------------------------------------------------------- state round trip
+    def _options(self) -> dict:
+        return {"nan_policy": self.nan_policy}
+
+    def get_state(self) -> dict:
+        """Everything needed to resume exactly: options, prior and the state vector.
+
+        The dict holds only plain Python values and float64 arrays, so it can
+        be stored as JSON + arrays (see :meth:`save_state`).
+        """
+        return {
+            "estimator": type(self).__name__,
+            "format": _STATE_FORMAT,
+            "n_params": self.n_params,
+            "n_outputs": self.n_outputs,
+            "single_output": self._single,
+            "options": self._options(),
+            "theta0": self.theta0.copy(),
+            "P0": self.P0.copy(),
+            "state": self._S.copy(),
+            "batch": self._batch,
+            "n_updates": self.n_updates,
+            "n_skipped": self.n_skipped,
+        }
+
+    @classmethod
+    def from_state(cls, state: dict):
+        """Rebuild an estimator from :meth:`get_state`'s dict (exact round trip)."""
+        if not isinstance(state, dict):
+            raise param_error("state", "a dict from get_state()", state, exc=TypeError)
+        from ._state import estimator_from_state
+        est = estimator_from_state(state)
+        if not isinstance(est, cls):
+            raise param_error("state", f"the state of a {cls.__name__}",
+                              f"<the state of a {type(est).__name__}>")
+        return est
+
+    def _set_state(self, S, batch, n_updates, n_skipped):
+        expect = (self._state_length(),) if batch is None else (batch, self._state_length())
+        S = as_float_array(S, "state['state']", shape=expect, copy=True, finite=False)
+        self._S = S
+        self._batch = batch
+        self.n_updates = int(n_updates)
+        self.n_skipped = int(n_skipped)
+
+    def save_state(self, path):
+        """Write the state to ``path`` (versioned, checksummed ``.npz``; never pickle).
+
+        The file is written to a temporary name and renamed, so a crash
+        never leaves a half-written state file. See :func:`adaptid.load_state`.
+        """
+        from ._state import save_state
+        save_state(self, path)
+
+    @classmethod
+    def load_state(cls, path):
+        """Read a file written by :meth:`save_state`; raises StateFileError if it is damaged."""
+        from ._state import load_state
+        est = load_state(path)
+        if not isinstance(est, cls):
+            from ._exceptions import StateFileError
+            raise StateFileError(f"path holds the state of a {type(est).__name__}, not a {cls.__name__}")
+        return est
+
+    def copy(self):
+        """An independent deep copy."""
+        return _copy.deepcopy(self)
+
+    def __getstate__(self):
+        return self.get_state()
+
+    def __setstate__(self, state):
+        from ._state import estimator_from_state
+        other = estimator_from_state(state)
+        self.__dict__.update(other.__dict__)
+
+    def __repr__(self):
+        opts = ", ".join(f"{k}={v!r}" for k, v in self._options().items() if k != "nan_policy")
+        batch = f", batch={self._batch}" if self._batch is not None else ""
+        return (f"{type(self).__name__}(n_params={self.n_params}"
+                f"{', n_outputs=' + str(self.n_outputs) if not self._single else ''}"
+                f"{', ' + opts if opts else ''}, n_updates={self.n_updates}{batch})")
+
+
+class _ForgettingMixin:
+    """Validation of forgetting (λ ∈ (0, 1], scalar or per sample)."""
+
+    @staticmethod
+    def _check_lambda(value, name="forgetting"):
+        return check_scalar(value, name, low=0.0, high=1.0, low_open=True)
+
+    def _lam_step(self, forgetting):
+        if forgetting is None:
+            return self.forgetting
+        return self._check_lambda(forgetting)
+
+    def _lam_run(self, forgetting, shape_N):
+        if forgetting is None:
+            forgetting = self.forgetting
+        return self._per_sample(forgetting, "forgetting", shape_N, low=0.0, high=1.0, low_open=True)
+
+
+class RLS(_ForgettingMixin, _RecursiveEstimator):
+    r"""Recursive least squares with prior (ridge) and exponential forgetting.
+
+    After samples 1..N the estimate minimises
+
+    .. math::
+
+        V_N(\theta) = \sum_{k=1}^{N} \Big(\prod_{i=k+1}^{N}\lambda_i\Big) w_k
+            (y_k - \varphi_k^T\theta)^2
+          + \Big(\prod_{i=1}^{N}\lambda_i\Big)(\theta-\theta_0)^T P_0^{-1}(\theta-\theta_0),
+
+    and ``P`` is the inverse of half its Hessian. Per sample
+    (RLS note, 3-step procedure; Ljung & Söderström 1983, eqs. 2.19–2.20):
+
+    .. math::
+
+        \varepsilon_k = y_k - \varphi_k^T\hat\theta_{k-1},\quad
+        K_k = \frac{P_{k-1}\varphi_k}{\lambda_k/w_k + \varphi_k^T P_{k-1}\varphi_k},\quad
+        \hat\theta_k = \hat\theta_{k-1} + K_k\varepsilon_k,\quad
+        P_k = \frac{1}{\lambda_k}\big(P_{k-1} - K_k\varphi_k^T P_{k-1}\big).
+
+    P is propagated in U-D factored form (Bierman's algorithm), which keeps
+    it symmetric positive definite and accurate even with a diffuse prior.
+
+    Parameters
+    ----------
+    n_params : int
+        Number of parameters n.
+    forgetting : float, optional
+        λ ∈ (0, 1]; 1 (default) means no forgetting. Per-sample values are
+        given to :meth:`update` / :meth:`run`.
+    theta0 : array_like, shape (n,) or (n, p), optional
+        Prior mean θ₀ (default zeros).
+    P0 : float or array_like, shape (n, n)
+        Prior covariance: a scalar c means c·I (default 1e4); a matrix must be
+        symmetric positive definite. ``P0 → ∞`` with λ = 1 gives ordinary
+        least squares.
+    nan_policy : {"raise", "skip"}
+        What a sample with NaN or inf in φ or y does: raise ``ValueError``
+        (default), or be skipped — θ and P are left exactly as they were (no
+        forgetting is applied either: a missing sample carries no
+        information and takes no time), the error is NaN and the sample is
+        counted in ``Trajectory.skipped`` / ``n_skipped``.
+    n_outputs : int, optional
+        p outputs sharing the regressor: θ has shape (n, p), one P.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (n,) or (n, p)
+    P : ndarray, shape (n, n)
+    n_updates : int
+        Samples processed (skipped ones not counted).
+
+    References
+    ----------
+    .. [1] G. J. Bierman, *Factorization Methods for Discrete Sequential
+       Estimation*, Academic Press, 1977, ch. V.
+    .. [2] L. Ljung, T. Söderström, *Theory and Practice of Recursive
+       Identification*, MIT Press, 1983.
+
+    Examples
+    --------
+    >>> import numpy as np, adaptid
+    >>> rng = np.random.default_rng(0)
+    >>> Phi = rng.standard_normal((500, 3)); y = Phi @ [1.0, -2.0, 0.5]
+    >>> est = adaptid.RLS(3, P0=1e8)
+    >>> traj = est.run(Phi, y)
+    >>> bool(np.allclose(est.theta, [1.0, -2.0, 0.5]))
+    True
+    """
+
+    _kind = "RLS"
+
+    def __init__(self, n_params, *, forgetting=1.0, theta0=None, P0=1e4,
+                 nan_policy="raise", n_outputs=None):
+        self.forgetting = self._check_lambda(forgetting)
+        super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
+                         n_outputs=n_outputs)
+
+    def _options(self):
+        return {"forgetting": self.forgetting, "nan_policy": self.nan_policy}
+
+    def update(self, phi, y, *, weight=1.0, forgetting=None):
+        r"""Process one sample; returns the a-priori error ε = y − φᵀθ.
+
+        Parameters
+        ----------
+        phi : array_like, shape (n,)
+        y : float or array_like, shape (p,)
+        weight : float
+            wₖ ≥ 0 (0: the sample only advances the forgetting).
+        forgetting : float, optional
+            λₖ for this step (default: the estimator's ``forgetting``).
+
+        Returns
+        -------
+        float or ndarray, shape (p,)
+        """
+        if self._batch is not None:
+            self._check_single("update")
+        phi = self._phi(phi)
+        yv = self._y(y)
+        w = self._weight(weight)
+        lam = self.forgetting if forgetting is None else self._check_lambda(forgetting)
+        st = self._kern.rls_update(self._S, phi, yv, lam, w, self._e)
+        if st & 1:
+            self._nonfinite_step(phi, yv)
+            return float("nan") if self._single else self._e.copy()
+        self.n_updates += 1
+        if st & 4:
+            self._warn_nonpositive(self.n_updates)
+        return float(self._e[0]) if self._single else self._e.copy()
+
+    def run(self, Phi, y, *, weights=None, forgetting=None, store=True):
+        r"""Process N samples in one compiled loop.
+
+        Parameters
+        ----------
+        Phi : array_like, shape (N, n)
+        y : array_like, shape (N,) or (N, p)
+        weights : float or array_like, shape (N,), optional
+            wₖ ≥ 0 (default 1).
+        forgetting : float or array_like, shape (N,), optional
+            λₖ ∈ (0, 1] (default: the estimator's ``forgetting``).
+        store : bool
+            Keep the per-sample θ (``Trajectory.theta``); False saves memory.
+
+        Returns
+        -------
+        Trajectory
+            Bit-for-bit the result of N calls of :meth:`update`.
+        """
+        self._check_single("run")
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
+        lam = self._lam_run(forgetting, Phi.shape[:1])
+        Th, E, skipped = self._alloc(Phi.shape[:1], store)
+        bad = self._kern.rls_run(self._S, Phi, Y, lam, w, Th, E, skipped)
+        self._count(skipped)
+        if bad >= 0:
+            self._warn_nonpositive(bad)
+        return self._finish(Th, E, skipped, False, store)
+
+    def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
+        r"""Run B independent streams in one compiled, parallel call.
+
+        Parameters
+        ----------
+        Phi : array_like, shape (B, N, n)
+        y : array_like, shape (B, N) or (B, N, p)
+        weights, forgetting : float or array broadcastable to (B, N), optional
+
+        Returns
+        -------
+        Trajectory
+            ``.theta`` (B, N, n), ``.error`` (B, N). Afterwards ``theta`` and
+            ``P`` carry the leading axis B; each stream started from this
+            estimator's state (or continues it, if already batched).
+        """
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True)
+        shape_N = Phi.shape[:2]
+        lam = self._lam_run(forgetting, shape_N)
+        S = self._prepare_batch(shape_N[0])
+        Th, E, skipped = self._alloc(shape_N, store)
+        bad = np.empty(shape_N[0], dtype=np.int64)
+        self._kern.rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, bad)
+        self._S, self._batch = S, shape_N[0]
+        self._count(skipped)
+        if (bad >= 0).any():
+            self._warn_nonpositive(f"{int(bad[bad >= 0][0])} of stream {int(np.argmax(bad >= 0))}")
+        return self._finish(Th, E, skipped, True, store)
+
+
+class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
+    r"""Sliding-window least squares: the truncated least squares method (TLSM).
+
+    After sample k the estimate minimises the RLS cost restricted to the
+    last M samples (the prior term kept, decaying with the forgetting):
+
+    .. math::
+
+        V_k(\theta) = \sum_{j=k-M+1}^{k} \Big(\prod_{i=j+1}^{k}\lambda_i\Big) w_j
+            (y_j - \varphi_j^T\theta)^2
+          + \Big(\prod_{i=1}^{k}\lambda_i\Big)(\theta-\theta_0)^T P_0^{-1}(\theta-\theta_0).
+
+    ``forgetting=1`` is Yamamoto's discrete algorithm 2 (eqs. 69–70), a
+    constant λ is algorithm 3 (eqs. 71–72), per-sample λₖ and weights wₖ are
+    algorithm 4 (eqs. 73–74); in the general form of eqs. 62–65 each step
+    adds the new sample and removes the one leaving the window:
+
+    .. math::
+
+        R_k = \lambda_k R_{k-1} + w_k\varphi_k\varphi_k^T
+              - c_k\,\varphi_{k-M}\varphi_{k-M}^T,\qquad
+        c_k = w_{k-M}\prod_{i=k-M+1}^{k}\lambda_i .
+
+    Both rank-one changes are done on the U-D factors of P = R⁻¹ (the removal
+    as a Bierman update with negative weight). A removal whose ratio
+    ``1 − c φᵀPφ`` of determinants falls below ``DOWNDATE_RTOL`` would lose
+    definiteness (or most of its digits): it is replaced by an exact re-solve
+    of the window from the buffer, and a :class:`DefinitenessLossWarning` is
+    emitted. With noise-free data the estimate equals the true θ exactly M
+    samples after an abrupt change (up to the decayed prior term).
+
+    Parameters
+    ----------
+    n_params : int
+    window : int
+        M ≥ n_params, the number of samples in the window.
+    forgetting, theta0, P0, nan_policy, n_outputs
+        As for :class:`RLS`.
+
+    References
+    ----------
+    .. [1] T. Yamamoto, "Continuous and discrete time adaptive algorithms by
+       the truncated least squares method (TLSM)", 1991, eqs. 62–74.
+    """
+
+    _kind = "SlidingWindowRLS"
+
+    def __init__(self, n_params, window, *, forgetting=1.0, theta0=None, P0=1e4,
+                 nan_policy="raise", n_outputs=None):
+        n = check_int(n_params, "n_params", low=1)
+        self.window = check_int(window, "window", low=n)
+        self.forgetting = self._check_lambda(forgetting)
+        super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
+                         n_outputs=n_outputs)
+
+    def _options(self):
+        return {"window": self.window, "forgetting": self.forgetting,
+                "nan_policy": self.nan_policy}
+
+    def _state_length(self):
+        n, p, M = self.n_params, self.n_outputs, self.window
+        return (n * p + n * n + n) * 2 + 3 + M * (n + p + 2)
+
+    def _fill_initial(self, S):
+        super()._fill_initial(S)
+        n, p, M = self.n_params, self.n_outputs, self.window
+        o = n * p + n * n + n + 3 + M * (n + p + 2)
+        S[o: o + n * p] = self.theta0.ravel()
+        S[o + n * p: o + n * p + n * n] = self._U0.ravel()
+        S[o + n * p + n * n:] = self._D0
+
+    def update(self, phi, y, *, weight=1.0, forgetting=None):
+        """Process one sample; returns the a-priori error. See :meth:`RLS.update`."""
+        if self._batch is not None:
+            self._check_single("update")
+        phi = self._phi(phi)
+        yv = self._y(y)
+        w = self._weight(weight)
+        lam = self.forgetting if forgetting is None else self._check_lambda(forgetting)
+        st = self._kern.window_update(self._S, phi, yv, lam, w, self._e, self.window,
+                                      _config.DOWNDATE_RTOL)
+        if st & 1:
+            self._nonfinite_step(phi, yv)
+            return float("nan") if self._single else self._e.copy()
+        self.n_updates += 1
+        if st & 2:
+            self._warn_rebuild(1)
+        if st & 4:
+            self._warn_nonpositive(self.n_updates)
+        return float(self._e[0]) if self._single else self._e.copy()
+
+    def _warn_rebuild(self, count):
+        warnings.warn(
+            f"SlidingWindowRLS: {count} removal(s) from the window would have lost "
+            "positive definiteness; the window was re-solved exactly from its buffer "
+            "(poorly excited window?)", DefinitenessLossWarning, stacklevel=3)
+
+    def run(self, Phi, y, *, weights=None, forgetting=None, store=True):
+        """Process N samples in one compiled loop. See :meth:`RLS.run`."""
+        self._check_single("run")
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
+        lam = self._lam_run(forgetting, Phi.shape[:1])
+        Th, E, skipped = self._alloc(Phi.shape[:1], store)
+        nreb = self._kern.window_run(self._S, Phi, Y, lam, w, Th, E, skipped,
+                                     self.window, _config.DOWNDATE_RTOL)
+        self._count(skipped)
+        if nreb:
+            self._warn_rebuild(nreb)
+        return self._finish(Th, E, skipped, False, store, nreb)
+
+    def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
+        """B independent streams in one compiled, parallel call. See :meth:`RLS.run_batched`."""
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True)
+        shape_N = Phi.shape[:2]
+        lam = self._lam_run(forgetting, shape_N)
+        S = self._prepare_batch(shape_N[0])
+        Th, E, skipped = self._alloc(shape_N, store)
+        reb = np.zeros(shape_N[0], dtype=np.int64)
+        self._kern.window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, self.window,
+                                      _config.DOWNDATE_RTOL, reb)
+        self._S, self._batch = S, shape_N[0]
+        self._count(skipped)
+        if reb.sum():
+            self._warn_rebuild(int(reb.sum()))
+        return self._finish(Th, E, skipped, True, store, int(reb.sum()))
+
+
+class KalmanRLS(_RecursiveEstimator):
+    r"""Kalman filter for a random-walk parameter.
+
+    Model: :math:`\theta_k = \theta_{k-1} + \nu_k`, :math:`E\,\nu\nu^T = R_1`,
+    :math:`y_k = \varphi_k^T\theta_k + e_k`, :math:`E\,e^2 = R_2`. Per sample
+    (recursive-identification note, Kalman filter for a random walk; Ljung &
+    Söderström 1983, eq. 2.114):
+
+    .. math::
+
+        K_k = \frac{P_{k-1}\varphi_k}{R_2/w_k + \varphi_k^T P_{k-1}\varphi_k},\quad
+        \hat\theta_k = \hat\theta_{k-1} + K_k\varepsilon_k,\quad
+        P_k = P_{k-1} - K_k\varphi_k^T P_{k-1} + R_1 .
+
+    This is the measurement update followed by the time update ("update then
+    predict"). The measurement update is Bierman's; the time update forms
+    ``U D Uᵀ + R₁`` and re-factorises it. Under ``nan_policy="skip"`` a
+    missing sample gets the time update only (P grows by R₁, θ unchanged).
+
+    Parameters
+    ----------
+    n_params : int
+    process_cov : float or array_like, shape (n, n)
+        R₁ ≥ 0: a scalar q means q·I; a matrix must be symmetric positive
+        semi-definite.
+    noise_var : float
+        R₂ > 0 (default 1).
+    theta0, P0, nan_policy, n_outputs
+        As for :class:`RLS`.
+    """
+
+    _kind = "KalmanRLS"
+
+    def __init__(self, n_params, *, process_cov, noise_var=1.0, theta0=None, P0=1e4,
+                 nan_policy="raise", n_outputs=None):
+        n = check_int(n_params, "n_params", low=1)
+        if np.ndim(process_cov) == 0:
+            q = check_scalar(process_cov, "process_cov", low=0.0)
+            Q = np.eye(n) * q
+        else:
+            Q = as_float_array(process_cov, "process_cov", shape=(n, n), copy=True)
+            if np.max(np.abs(Q - Q.T), initial=0.0) > 100 * n * np.finfo(float).eps * np.max(np.abs(Q)):
+                raise param_error("process_cov", "a symmetric matrix", "<a non-symmetric matrix>")
+            Q = 0.5 * (Q + Q.T)
+            ev = np.linalg.eigvalsh(Q)
+            if ev[0] < -100 * n * np.finfo(float).eps * max(abs(ev[-1]), 1e-300):
+                raise param_error("process_cov", "positive semi-definite",
+                                  f"<smallest eigenvalue {ev[0]:.3g}>")
+        self.process_cov = Q
+        self.noise_var = check_scalar(noise_var, "noise_var", low=0.0, low_open=True)
+        super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
+                         n_outputs=n_outputs)
+
+    def _options(self):
+        return {"process_cov": self.process_cov.copy(), "noise_var": self.noise_var,
+                "nan_policy": self.nan_policy}
+
+    def update(self, phi, y, *, weight=1.0):
+        """Process one sample (measurement then time update); returns ε."""
+        if self._batch is not None:
+            self._check_single("update")
+        phi = self._phi(phi)
+        yv = self._y(y)
+        w = self._weight(weight)
+        skip = self.nan_policy == "skip"
+        st = self._kern.kalman_update(self._S, phi, yv, self.noise_var, w,
+                                      self.process_cov, self._e, skip)
+        if st & 1:
+            self._nonfinite_step(phi, yv)
+            if st & 4:
+                self._warn_nonpositive(self.n_updates)
+            return float("nan") if self._single else self._e.copy()
+        self.n_updates += 1
+        if st & 4:
+            self._warn_nonpositive(self.n_updates)
+        return float(self._e[0]) if self._single else self._e.copy()
+
+    def run(self, Phi, y, *, weights=None, store=True):
+        """Process N samples in one compiled loop. See :meth:`RLS.run`."""
+        self._check_single("run")
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
+        Th, E, skipped = self._alloc(Phi.shape[:1], store)
+        bad = self._kern.kalman_run(self._S, Phi, Y, self.noise_var, w, self.process_cov,
+                                    Th, E, skipped)
+        self._count(skipped)
+        if bad >= 0:
+            self._warn_nonpositive(bad)
+        return self._finish(Th, E, skipped, False, store)
+
+    def run_batched(self, Phi, y, *, weights=None, store=True):
+        """B independent streams in one compiled, parallel call. See :meth:`RLS.run_batched`."""
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True)
+        shape_N = Phi.shape[:2]
+        S = self._prepare_batch(shape_N[0])
+        Th, E, skipped = self._alloc(shape_N, store)
+        bad = np.empty(shape_N[0], dtype=np.int64)
+        self._kern.kalman_run_batched(S, Phi, Y, self.noise_var, w, self.process_cov,
+                                      Th, E, skipped, bad)
+        self._S, self._batch = S, shape_N[0]
+        self._count(skipped)
+        if (bad >= 0).any():
+            self._warn_nonpositive(int(bad[bad >= 0][0]))
+        return self._finish(Th, E, skipped, True, store)

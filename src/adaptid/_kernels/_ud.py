@@ -1,0 +1,541 @@
+r"""Compiled U-D (Bierman) kernels of the recursive estimators.
+
+The covariance is kept factorised, :math:`P = U \operatorname{diag}(D) U^T`
+with ``U`` unit upper triangular and ``D > 0`` (Bierman 1977, ch. V), so that
+P stays symmetric and positive definite by construction and a diffuse prior
+(P0 = 1e10 … 1e12) costs no accuracy.
+
+* measurement update ``P ← P − Pφφᵀ P/(r + φᵀPφ)``: Bierman's algorithm;
+* removal of a sample from a window (``r < 0``): the same algorithm with a
+  negative weight; every intermediate α stays negative, so the factor stays
+  definite exactly when ``1 − c φᵀPφ > 0``, which is checked *before* the
+  factor is touched;
+* forgetting ``P ← P/λ``: ``D ← D/λ``;
+* Kalman time update ``P ← P + R₁``: the sum is formed and re-factorised.
+
+State layout
+------------
+Each estimator's whole state is one flat float64 vector ``S`` (``(B, L)``
+when batched), so a call passes few arguments:
+
+``[ theta (n·p) | U (n·n) | D (n) ]`` for RLS and KalmanRLS, followed for
+the sliding window by ``[ L, pos, count | Φ buffer (M·n) | Y buffer (M·p) |
+weights (M) | log-λ sums (M) | theta0 (n·p) | U0 (n·n) | D0 (n) ]``.
+
+Specialisation
+--------------
+Each kernel's first line is ``NP = <shape>  # @np``. :mod:`adaptid._kernels`
+writes copies of this file with that line replaced by a literal (``NP = 4``),
+so that LLVM sees constant trip counts and unrolls the small loops; this file
+itself is the generic version for any n. Nothing here validates input: the
+Python layer does that.
+"""
+
+import numpy as np
+from numba import njit, prange
+
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+
+# Status bits returned by the single-step kernels.
+SKIPPED = 1
+REBUILT = 2
+NONPOSITIVE = 4
+
+
+# --------------------------------------------------------------------------
+# building blocks
+# --------------------------------------------------------------------------
+@njit(**NJIT_INLINE)
+def _finite_row(phi, y, NP, p):
+    for i in range(NP):
+        if not np.isfinite(phi[i]):
+            return False
+    for j in range(p):
+        if not np.isfinite(y[j]):
+            return False
+    return True
+
+
+@njit(**NJIT_INLINE)
+def _prior_errors(theta, phi, y, e, NP, p):
+    for j in range(p):
+        s = y[j]
+        for i in range(NP):
+            s -= phi[i] * theta[i, j]
+        e[j] = s
+
+
+@njit(**NJIT_INLINE)
+def _bierman_prep(U, D, phi, f, v, NP):
+    """f = Uᵀφ, v = D f; returns φᵀPφ = Σ fⱼ vⱼ."""
+    q = 0.0
+    for j in range(NP):
+        s = phi[j]
+        for i in range(j):
+            s += U[i, j] * phi[i]
+        f[j] = s
+        v[j] = D[j] * s
+        q += s * v[j]
+    return q
+
+
+@njit(**NJIT_INLINE)
+def _bierman_apply(U, D, r, f, v, b, NP):
+    """Bierman update with weight r (r < 0: removal). b ← Pφ (old P).
+
+    Returns α = r + φᵀPφ; the gain is b/α.
+    """
+    a = r + f[0] * v[0]
+    D[0] = D[0] * (r / a)
+    b[0] = v[0]
+    for j in range(1, NP):
+        an = a + f[j] * v[j]
+        D[j] = D[j] * (a / an)
+        b[j] = v[j]
+        pj = -f[j] / a
+        for i in range(j):
+            u = U[i, j]
+            U[i, j] = u + b[i] * pj
+            b[i] += u * v[j]
+        a = an
+    return a
+
+
+@njit(**NJIT_INLINE)
+def _gain_step(theta, b, a, e, NP, p):
+    ia = 1.0 / a
+    for i in range(NP):
+        g = b[i] * ia
+        for j in range(p):
+            theta[i, j] += g * e[j]
+
+
+@njit(**NJIT_INLINE)
+def _forget(D, lam, NP):
+    if lam != 1.0:
+        il = 1.0 / lam
+        for i in range(NP):
+            D[i] *= il
+
+
+@njit(**NJIT_INLINE)
+def _d_ok(D, NP):
+    for i in range(NP):
+        if not (D[i] > 0.0 and D[i] < np.inf):
+            return False
+    return True
+
+
+@njit(**NJIT_INLINE)
+def _store(Th, k, theta, NP, p):
+    for i in range(NP):
+        for j in range(p):
+            Th[k, i, j] = theta[i, j]
+
+
+@njit(**NJIT_INLINE)
+def _views(S, NP, p):
+    theta = S[0:NP * p].reshape((NP, p))
+    o = NP * p
+    U = S[o:o + NP * NP].reshape((NP, NP))
+    o += NP * NP
+    D = S[o:o + NP]
+    return theta, U, D
+
+
+# --------------------------------------------------------------------------
+# RLS: exponential forgetting, weights, prior (ridge)
+# --------------------------------------------------------------------------
+@njit(**NJIT_INLINE)
+def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, NP, p):
+    # Written flat, with every branch at the top of the loop body: a branch
+    # around the unrolled update (e.g. `if w > 0`) made LLVM spill the state
+    # and the loop ran 4 x slower (measured at n = 4).
+    theta, U, D = _views(S, NP, p)
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    e = np.empty(p)
+    store = Th.shape[0] == Phi.shape[0]
+    bad = -1
+    for k in range(Phi.shape[0]):
+        phi = Phi[k]
+        ok = True
+        for i in range(NP):
+            if not np.isfinite(phi[i]):
+                ok = False
+        for j in range(p):
+            if not np.isfinite(Y[k, j]):
+                ok = False
+        wk = w[k]
+        if ok and wk > 0.0:
+            for j in range(p):
+                s = Y[k, j]
+                for i in range(NP):
+                    s -= phi[i] * theta[i, j]
+                e[j] = s
+                E[k, j] = s
+            il = 1.0 / lam[k]
+            for i in range(NP):
+                D[i] *= il
+            _bierman_prep(U, D, phi, f, v, NP)
+            a = _bierman_apply(U, D, 1.0 / wk, f, v, b, NP)
+            ia = 1.0 / a
+            for i in range(NP):
+                g = b[i] * ia
+                for j in range(p):
+                    theta[i, j] += g * e[j]
+        elif ok:  # weight 0: the sample only advances the forgetting
+            for j in range(p):
+                s = Y[k, j]
+                for i in range(NP):
+                    s -= phi[i] * theta[i, j]
+                E[k, j] = s
+            il = 1.0 / lam[k]
+            for i in range(NP):
+                D[i] *= il
+        else:
+            skipped[k] = True
+            for j in range(p):
+                E[k, j] = np.nan
+        if bad < 0:
+            for i in range(NP):
+                if not (D[i] > 0.0 and D[i] < np.inf):
+                    bad = k
+        if store:
+            for i in range(NP):
+                for j in range(p):
+                    Th[k, i, j] = theta[i, j]
+    return bad
+
+
+@njit(**NJIT)
+def rls_update(S, phi, y, lam, w, e):
+    """One RLS step through the same compiled code as :func:`rls_run`.
+
+    Returns status bits; the state is untouched when SKIPPED.
+    """
+    NP = phi.shape[0]  # @np
+    p = y.shape[0]
+    Phi = phi.reshape((1, NP))
+    Y = y.reshape((1, p))
+    E = e.reshape((1, p))
+    lam1 = np.full(1, lam)
+    w1 = np.full(1, w)
+    Th = np.empty((0, NP, p))
+    skipped = np.zeros(1, dtype=np.bool_)
+    if p == 1:
+        bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, NP, 1)
+    else:
+        bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, NP, p)
+    if skipped[0]:
+        return SKIPPED
+    if bad >= 0:
+        return NONPOSITIVE
+    return 0
+
+
+@njit(**NJIT)
+def rls_run(S, Phi, Y, lam, w, Th, E, skipped):
+    """N RLS steps; returns the first sample index where D lost positivity, or -1."""
+    NP = Phi.shape[1]  # @np
+    if Y.shape[1] == 1:
+        return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, NP, 1)
+    return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, NP, Y.shape[1])
+
+
+@njit(**NJIT_PARALLEL)
+def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, bad):
+    """B independent RLS streams in parallel; ``bad[b]`` as in :func:`rls_run`."""
+    NP = Phi.shape[2]  # @np
+    for s in prange(Phi.shape[0]):
+        bad[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
+                             skipped[s], NP, Y.shape[2])
+
+
+# --------------------------------------------------------------------------
+# Kalman filter for a random-walk parameter
+# --------------------------------------------------------------------------
+@njit(**NJIT_INLINE)
+def _time_update(U, D, Q, W, NP):
+    """U D Uᵀ ← U D Uᵀ + Q, re-factorised (upper U-D). False if not PD."""
+    for i in range(NP):
+        for j in range(i, NP):
+            s = Q[i, j] + D[j] * U[i, j] if i < j else Q[i, j] + D[j]
+            for k in range(j + 1, NP):
+                s += U[i, k] * D[k] * U[j, k]
+            W[i, j] = s
+    for j in range(NP - 1, -1, -1):
+        d = W[j, j]
+        for k in range(j + 1, NP):
+            d -= D[k] * U[j, k] * U[j, k]
+        if not (d > 0.0):
+            return False
+        D[j] = d
+        for i in range(j):
+            s = W[i, j]
+            for k in range(j + 1, NP):
+                s -= D[k] * U[i, k] * U[j, k]
+            U[i, j] = s / d
+    return True
+
+
+@njit(**NJIT_INLINE)
+def _kalman_step(theta, U, D, phi, y, r2, w, Q, e, f, v, b, W, NP, p):
+    _prior_errors(theta, phi, y, e, NP, p)
+    if w > 0.0:
+        _bierman_prep(U, D, phi, f, v, NP)
+        a = _bierman_apply(U, D, r2 / w, f, v, b, NP)
+        _gain_step(theta, b, a, e, NP, p)
+    return _time_update(U, D, Q, W, NP)
+
+
+@njit(**NJIT)
+def kalman_update(S, phi, y, r2, w, Q, e, skip):
+    """One Kalman step. ``skip``: a NaN sample gets the time update only."""
+    NP = phi.shape[0]  # @np
+    p = y.shape[0]
+    theta, U, D = _views(S, NP, p)
+    W = np.empty((NP, NP))
+    if not _finite_row(phi, y, NP, p):
+        for j in range(p):
+            e[j] = np.nan
+        if skip:
+            if not _time_update(U, D, Q, W, NP):
+                return SKIPPED | NONPOSITIVE
+        return SKIPPED
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    if not _kalman_step(theta, U, D, phi, y, r2, w, Q, e, f, v, b, W, NP, p):
+        return NONPOSITIVE
+    return 0
+
+
+@njit(**NJIT_INLINE)
+def _kalman_stream(S, Phi, Y, r2, w, Q, Th, E, skipped, NP):
+    p = Y.shape[1]
+    theta, U, D = _views(S, NP, p)
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    W = np.empty((NP, NP))
+    store = Th.shape[0] == Phi.shape[0]
+    bad = -1
+    for k in range(Phi.shape[0]):
+        phi = Phi[k]
+        y = Y[k]
+        if _finite_row(phi, y, NP, p):
+            ok = _kalman_step(theta, U, D, phi, y, r2, w[k], Q, E[k], f, v, b, W, NP, p)
+        else:
+            skipped[k] = True
+            for j in range(p):
+                E[k, j] = np.nan
+            ok = _time_update(U, D, Q, W, NP)
+        if bad < 0 and not ok:
+            bad = k
+        if store:
+            _store(Th, k, theta, NP, p)
+    return bad
+
+
+@njit(**NJIT)
+def kalman_run(S, Phi, Y, r2, w, Q, Th, E, skipped):
+    NP = Phi.shape[1]  # @np
+    return _kalman_stream(S, Phi, Y, r2, w, Q, Th, E, skipped, NP)
+
+
+@njit(**NJIT_PARALLEL)
+def kalman_run_batched(S, Phi, Y, r2, w, Q, Th, E, skipped, bad):
+    NP = Phi.shape[2]  # @np
+    for s in prange(Phi.shape[0]):
+        bad[s] = _kalman_stream(S[s], Phi[s], Y[s], r2, w[s], Q, Th[s], E[s],
+                                skipped[s], NP)
+
+
+# --------------------------------------------------------------------------
+# Sliding window (truncated least squares method, TLSM)
+# --------------------------------------------------------------------------
+@njit(**NJIT_INLINE)
+def _window_views(S, NP, p, M):
+    theta, U, D = _views(S, NP, p)
+    o = NP * p + NP * NP + NP
+    meta = S[o:o + 3]
+    o += 3
+    Bphi = S[o:o + M * NP].reshape((M, NP))
+    o += M * NP
+    By = S[o:o + M * p].reshape((M, p))
+    o += M * p
+    Bw = S[o:o + M]
+    o += M
+    BL = S[o:o + M]
+    o += M
+    theta0 = S[o:o + NP * p].reshape((NP, p))
+    o += NP * p
+    U0 = S[o:o + NP * NP].reshape((NP, NP))
+    o += NP * NP
+    D0 = S[o:o + NP]
+    return theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0
+
+
+@njit(**NJIT_INLINE)
+def _add(theta, U, D, phi, y, r, e, f, v, b, NP, p):
+    """Add (r > 0) or remove (r < 0) one observation with error e = y − φᵀθ."""
+    _bierman_prep(U, D, phi, f, v, NP)
+    a = _bierman_apply(U, D, r, f, v, b, NP)
+    _gain_step(theta, b, a, e, NP, p)
+
+
+@njit(**NJIT_INLINE)
+def _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
+                    e, f, v, b, NP, p, M):
+    """Re-solve the window exactly from its buffer and the (decayed) prior."""
+    L = meta[0]
+    pos = int(meta[1])
+    count = int(meta[2])
+    scale = np.exp(min(-L, 600.0))  # prior P0/Πλ; floored at exp(-600) of its weight
+    for i in range(NP):
+        D[i] = D0[i] * scale
+        for j in range(NP):
+            U[i, j] = U0[i, j]
+        for j in range(p):
+            theta[i, j] = theta0[i, j]
+    start = pos - count
+    for t in range(count):
+        s = (start + t) % M
+        c = Bw[s] * np.exp(L - BL[s])
+        if c > 0.0:
+            _prior_errors(theta, Bphi[s], By[s], e, NP, p)
+            _add(theta, U, D, Bphi[s], By[s], 1.0 / c, e, f, v, b, NP, p)
+
+
+@njit(**NJIT_INLINE)
+def _window_step(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
+                 phi, y, lam, w, e, e2, f, v, b, NP, p, M, rtol):
+    """One TLSM step: forget, add the new sample, remove the one leaving the window.
+
+    Returns True when the removal had to be replaced by a re-solve.
+    """
+    _prior_errors(theta, phi, y, e, NP, p)
+    _forget(D, lam, NP)
+    L = meta[0] + np.log(lam)
+    meta[0] = L
+    if w > 0.0:
+        _add(theta, U, D, phi, y, 1.0 / w, e, f, v, b, NP, p)
+    pos = int(meta[1])
+    count = int(meta[2])
+    rebuilt = False
+    if count == M:
+        c = Bw[pos] * np.exp(L - BL[pos])
+        if c > 0.0:
+            q = _bierman_prep(U, D, Bphi[pos], f, v, NP)
+            if 1.0 - c * q < rtol:
+                rebuilt = True
+            else:
+                _prior_errors(theta, Bphi[pos], By[pos], e2, NP, p)
+                a = _bierman_apply(U, D, -1.0 / c, f, v, b, NP)
+                _gain_step(theta, b, a, e2, NP, p)
+    for i in range(NP):
+        Bphi[pos, i] = phi[i]
+    for j in range(p):
+        By[pos, j] = y[j]
+    Bw[pos] = w
+    BL[pos] = L
+    pos += 1
+    if pos == M:
+        pos = 0
+    meta[1] = pos
+    if count < M:
+        meta[2] = count + 1
+    if rebuilt:
+        _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
+                        e2, f, v, b, NP, p, M)
+    return rebuilt
+
+
+@njit(**NJIT)
+def window_update(S, phi, y, lam, w, e, M, rtol):
+    NP = phi.shape[0]  # @np
+    p = y.shape[0]
+    if not _finite_row(phi, y, NP, p):
+        for j in range(p):
+            e[j] = np.nan
+        return SKIPPED
+    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    e2 = np.empty(p)
+    status = 0
+    if _window_step(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
+                    phi, y, lam, w, e, e2, f, v, b, NP, p, M, rtol):
+        status |= REBUILT
+    if not _d_ok(D, NP):
+        status |= NONPOSITIVE
+    return status
+
+
+@njit(**NJIT_INLINE)
+def _window_stream(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP):
+    p = Y.shape[1]
+    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    e2 = np.empty(p)
+    store = Th.shape[0] == Phi.shape[0]
+    rebuilds = 0
+    for k in range(Phi.shape[0]):
+        phi = Phi[k]
+        y = Y[k]
+        if _finite_row(phi, y, NP, p):
+            if _window_step(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
+                            phi, y, lam[k], w[k], E[k], e2, f, v, b, NP, p, M, rtol):
+                rebuilds += 1
+        else:
+            skipped[k] = True
+            for j in range(p):
+                E[k, j] = np.nan
+        if store:
+            _store(Th, k, theta, NP, p)
+    return rebuilds
+
+
+@njit(**NJIT)
+def window_run(S, Phi, Y, lam, w, Th, E, skipped, M, rtol):
+    """N TLSM steps; returns the number of removals replaced by a re-solve."""
+    NP = Phi.shape[1]  # @np
+    return _window_stream(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP)
+
+
+@njit(**NJIT_PARALLEL)
+def window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, rebuilds):
+    NP = Phi.shape[2]  # @np
+    for s in prange(Phi.shape[0]):
+        rebuilds[s] = _window_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
+                                     skipped[s], M, rtol, NP)
+
+
+# --------------------------------------------------------------------------
+# factorisation helpers (used when a state is created from P)
+# --------------------------------------------------------------------------
+@njit(**NJIT)
+def ud_factor(P, U, D):
+    """Upper U-D factorisation P = U diag(D) Uᵀ. Returns False if P is not PD."""
+    n = P.shape[0]
+    for i in range(n):
+        for j in range(n):
+            U[i, j] = 1.0 if i == j else 0.0
+    for j in range(n - 1, -1, -1):
+        d = P[j, j]
+        for k in range(j + 1, n):
+            d -= D[k] * U[j, k] * U[j, k]
+        if not (d > 0.0):
+            return False
+        D[j] = d
+        for i in range(j):
+            s = P[i, j]
+            for k in range(j + 1, n):
+                s -= D[k] * U[i, k] * U[j, k]
+            U[i, j] = s / d
+    return True

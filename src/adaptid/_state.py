@@ -1,0 +1,181 @@
+r"""Estimator state: dict round trip and safe, versioned state files.
+
+File format (version 1)
+-----------------------
+A NumPy ``.npz`` archive read with ``allow_pickle=False`` holding
+
+* ``header`` — UTF-8 JSON as a uint8 array: ``{"magic": "adaptid-state",
+  "format": 1, "estimator": <class name>, "n_params", "n_outputs",
+  "single_output", "options", "batch", "n_updates", "n_skipped",
+  "adaptid_version", "checksum"}``;
+* ``theta0``, ``P0``, ``state`` and, for KalmanRLS, ``process_cov`` — float64.
+
+``checksum`` is the SHA-256 of the header without the checksum (canonical
+JSON, sorted keys) followed by the raw bytes, dtype and shape of every array
+in name order. The file is written to a temporary name in the same folder,
+flushed and fsync'ed, then renamed over the target, so a reader sees the old
+file or the new one, never half of one. Reading checks the magic, the format
+version, the checksum, the estimator type and every shape; any mismatch raises
+:class:`~adaptid.StateFileError` (a ``ValueError``). Pickle is never used: a
+pickled object array inside the archive is refused by ``allow_pickle=False``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from ._exceptions import StateFileError
+
+FORMAT = 1
+_MAGIC = "adaptid-state"
+_ARRAYS = ("theta0", "P0", "state", "process_cov")
+
+
+def _classes():
+    from ._estimators import KalmanRLS, RLS, SlidingWindowRLS
+    return {"RLS": RLS, "SlidingWindowRLS": SlidingWindowRLS, "KalmanRLS": KalmanRLS}
+
+
+def estimator_from_state(state: dict):
+    """Build an estimator from a :meth:`get_state` dict (exact round trip)."""
+    from ._validation import param_error
+    try:
+        kind = state["estimator"]
+        fmt = state["format"]
+        cls = _classes()[kind]
+    except (KeyError, TypeError):
+        raise param_error("state", "a dict from get_state() naming a known estimator",
+                          "<a dict without a valid 'estimator'>") from None
+    if fmt != FORMAT:
+        raise param_error("state['format']", f"{FORMAT}", fmt)
+    opts = dict(state["options"])
+    kwargs = dict(theta0=np.asarray(state["theta0"]) if not state["single_output"]
+                  else np.asarray(state["theta0"])[:, 0],
+                  P0=np.asarray(state["P0"]), **opts)
+    if not state["single_output"]:
+        kwargs["n_outputs"] = int(state["n_outputs"])
+    if kind == "SlidingWindowRLS":
+        window = kwargs.pop("window")
+        est = cls(int(state["n_params"]), window, **kwargs)
+    else:
+        est = cls(int(state["n_params"]), **kwargs)
+    # the prior is restored verbatim (not re-validated through a round trip)
+    est.theta0 = np.array(state["theta0"], dtype=np.float64).reshape(est.theta0.shape)
+    est._set_state(state["state"], state["batch"], state["n_updates"], state["n_skipped"])
+    return est
+
+
+def _digest(header: dict, arrays: dict) -> str:
+    h = hashlib.sha256()
+    h.update(json.dumps(header, sort_keys=True, separators=(",", ":")).encode())
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(name.encode())
+        h.update(str(a.dtype).encode())
+        h.update(repr(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def save_state(est, path) -> None:
+    """Write ``est.get_state()`` to ``path`` atomically (see module docstring)."""
+    from . import __version__
+    st = est.get_state()
+    opts = dict(st["options"])
+    arrays = {"theta0": st["theta0"], "P0": st["P0"], "state": st["state"]}
+    if "process_cov" in opts:
+        arrays["process_cov"] = np.asarray(opts.pop("process_cov"))
+    header = {
+        "magic": _MAGIC, "format": FORMAT, "estimator": st["estimator"],
+        "n_params": st["n_params"], "n_outputs": st["n_outputs"],
+        "single_output": st["single_output"], "options": opts, "batch": st["batch"],
+        "n_updates": st["n_updates"], "n_skipped": st["n_skipped"],
+        "adaptid_version": __version__,
+    }
+    header["checksum"] = _digest(header, arrays)
+    buf = io.BytesIO()
+    np.savez(buf, header=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8), **arrays)
+    path = Path(os.fspath(path))
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(buf.getvalue())
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def load_state(path):
+    """Read a state file; raise :class:`StateFileError` on any damage or mismatch."""
+    path = Path(os.fspath(path))
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise StateFileError(f"path {str(path)!r} cannot be read: {err.strerror or err}") from None
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            names = set(npz.files)
+            if "header" not in names:
+                raise StateFileError(f"{path}: not an adaptid state file (no header)")
+            raw = npz["header"]
+            arrays = {k: npz[k] for k in names - {"header"}}
+    except StateFileError:
+        raise
+    except ValueError as err:  # includes "Object arrays cannot be loaded when allow_pickle=False"
+        raise StateFileError(f"{path}: refused ({err})") from None
+    except (OSError, zipfile.BadZipFile, EOFError, KeyError) as err:
+        raise StateFileError(f"{path}: truncated or corrupted state file ({type(err).__name__}: {err})") from None
+    try:
+        if raw.dtype != np.uint8 or raw.ndim != 1:
+            raise ValueError("header is not a byte string")
+        header = json.loads(raw.tobytes().decode("utf-8"))
+        if not isinstance(header, dict):
+            raise ValueError("header is not an object")
+    except (ValueError, UnicodeDecodeError) as err:
+        raise StateFileError(f"{path}: corrupted header ({err})") from None
+    if header.get("magic") != _MAGIC:
+        raise StateFileError(f"{path}: not an adaptid state file")
+    fmt = header.get("format")
+    if not isinstance(fmt, int) or fmt > FORMAT:
+        raise StateFileError(f"{path}: state format {fmt!r} is newer than this adaptid "
+                             f"supports ({FORMAT}); upgrade adaptid")
+    if fmt != FORMAT:
+        raise StateFileError(f"{path}: unknown state format {fmt!r}")
+    checksum = header.pop("checksum", None)
+    if set(arrays) - set(_ARRAYS):
+        raise StateFileError(f"{path}: unexpected arrays {sorted(set(arrays) - set(_ARRAYS))}")
+    if any(a.dtype != np.float64 for a in arrays.values()):
+        raise StateFileError(f"{path}: arrays must be float64")
+    if checksum != _digest(header, arrays):
+        raise StateFileError(f"{path}: checksum mismatch (the file was altered or damaged)")
+    if header.get("estimator") not in _classes():
+        raise StateFileError(f"{path}: unknown estimator type {header.get('estimator')!r}")
+    opts = dict(header["options"])
+    if "process_cov" in arrays:
+        opts["process_cov"] = arrays["process_cov"]
+    state = {
+        "estimator": header["estimator"], "format": fmt, "n_params": header["n_params"],
+        "n_outputs": header["n_outputs"], "single_output": header["single_output"],
+        "options": opts, "theta0": arrays.get("theta0"), "P0": arrays.get("P0"),
+        "state": arrays.get("state"), "batch": header["batch"],
+        "n_updates": header["n_updates"], "n_skipped": header["n_skipped"],
+    }
+    try:
+        return estimator_from_state(state)
+    except (ValueError, TypeError, KeyError) as err:
+        raise StateFileError(f"{path}: inconsistent state ({err})") from None
