@@ -1,0 +1,174 @@
+r"""Batch (weighted, ridge) least squares by QR."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+from scipy import linalg, stats
+
+from ._validation import as_float_array, check_scalar, param_error
+
+__all__ = ["lstsq", "LSResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class LSResult:
+    r"""Result of :func:`lstsq`.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (n,) or (n, p)
+        The estimate.
+    residuals : ndarray, shape (N,) or (N, p)
+        :math:`y - \Phi\hat\theta` (unweighted).
+    sigma2 : float or ndarray, shape (p,)
+        :math:`\hat\sigma^2 = \sum_k w_k r_k^2 / (N - n)`.
+    dof : int
+        Residual degrees of freedom N − n.
+    rank : int
+        Numerical rank of the (weighted, augmented) design.
+    """
+
+    theta: np.ndarray
+    residuals: np.ndarray
+    sigma2: np.ndarray
+    dof: int
+    rank: int
+    _R: np.ndarray = field(repr=False)
+    _single: bool = field(repr=False, default=True)
+
+    @cached_property
+    def _Rinv(self) -> np.ndarray:
+        n = self._R.shape[0]
+        return linalg.solve_triangular(self._R, np.eye(n), lower=False)
+
+    @cached_property
+    def unscaled_cov(self) -> np.ndarray:
+        r"""(ΦᵀWΦ + ridge·I)⁻¹ = R⁻¹R⁻ᵀ, shape (n, n), from the triangular factor."""
+        Ri = self._Rinv
+        return Ri @ Ri.T
+
+    @cached_property
+    def cov(self) -> np.ndarray:
+        r"""σ̂²(ΦᵀWΦ + ridge·I)⁻¹: shape (n, n), or (p, n, n) for p outputs."""
+        s2 = np.asarray(self.sigma2)
+        if s2.ndim == 0:
+            return s2 * self.unscaled_cov
+        return s2[:, None, None] * self.unscaled_cov[None]
+
+    @cached_property
+    def stderr(self) -> np.ndarray:
+        """Standard errors √diag(cov): shape (n,) or (n, p)."""
+        d = np.sqrt(np.diag(self.unscaled_cov))
+        s = np.sqrt(np.asarray(self.sigma2))
+        return d * s if s.ndim == 0 else d[:, None] * s[None, :]
+
+    def conf_int(self, alpha=0.05) -> np.ndarray:
+        r"""Two-sided (1 − α) confidence intervals from Student's t with N − n dof.
+
+        Returns
+        -------
+        ndarray, shape (n, 2) or (n, p, 2)
+            Lower and upper bounds.
+        """
+        alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
+        if self.dof <= 0:
+            raise ValueError("conf_int needs N > n (no residual degrees of freedom)")
+        q = stats.t.ppf(1 - alpha / 2, self.dof)
+        half = q * self.stderr
+        return np.stack([self.theta - half, self.theta + half], axis=-1)
+
+    def __repr__(self):
+        return f"LSResult(theta={np.array2string(np.asarray(self.theta), precision=6)}, dof={self.dof})"
+
+
+def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
+    r"""Weighted, ridge-regularised least squares by QR.
+
+    Minimises
+
+    .. math::
+
+        \sum_k w_k (y_k - \varphi_k^T\theta)^2 + \text{ridge}\,\|\theta\|^2
+
+    by a Householder QR of the stacked system
+    :math:`\begin{bmatrix} W^{1/2}\Phi \\ \sqrt{\text{ridge}}\,I\end{bmatrix}`
+    (never forming ΦᵀΦ), so the accuracy depends on cond(Φ), not cond(Φ)².
+    The covariance is :math:`\hat\sigma^2 (\Phi^T W\Phi + \text{ridge}\,I)^{-1}
+    = \hat\sigma^2 R^{-1}R^{-T}`, from triangular solves, with
+    :math:`\hat\sigma^2 = \sum_k w_k r_k^2/(N - n)` (ordinary and weighted LS
+    as in statsmodels' OLS / WLS).
+
+    Parameters
+    ----------
+    Phi : array_like, shape (N, n)
+        Regressors, finite.
+    y : array_like, shape (N,) or (N, p)
+        Outputs, finite; p outputs share Φ.
+    weights : array_like, shape (N,), optional
+        wₖ ≥ 0 (default 1).
+    ridge : float
+        ≥ 0; the Tikhonov term (RLS note: P[N] = (Σ φφᵀ + αI)⁻¹).
+
+    Returns
+    -------
+    LSResult
+
+    Raises
+    ------
+    ValueError
+        On wrong shapes, non-finite data, negative weights or ridge, or a
+        rank-deficient design with ``ridge == 0`` (the parameters are then
+        not identifiable: add ``ridge`` or remove columns).
+
+    Examples
+    --------
+    >>> import numpy as np, adaptid
+    >>> Phi = np.column_stack([np.ones(5), np.arange(5.0)])
+    >>> res = adaptid.lstsq(Phi, 1.0 + 2.0 * np.arange(5.0))
+    >>> np.allclose(res.theta, [1.0, 2.0])
+    True
+    """
+    Phi = as_float_array(Phi, "Phi", ndim=2)
+    N, n = Phi.shape
+    if n == 0:
+        raise param_error("Phi", "of shape (N, n) with n >= 1", f"<shape {Phi.shape}>")
+    Y = as_float_array(y, "y", ndim=(1, 2))
+    if Y.shape[0] != N:
+        raise param_error("y", f"of length N={N} (rows of Phi)", f"<shape {Y.shape}>")
+    single = Y.ndim == 1
+    Y2 = Y.reshape(N, -1)
+    ridge = check_scalar(ridge, "ridge", low=0.0)
+    if weights is None:
+        sw = None
+    else:
+        w = as_float_array(weights, "weights", shape=(N,))
+        if (w < 0).any():
+            raise param_error("weights", "non-negative", "<negative entries>")
+        sw = np.sqrt(w)
+    if N + (n if ridge > 0 else 0) < n:
+        raise param_error("Phi", f"with at least n={n} rows (or ridge > 0)", f"<{N} rows>")
+    A = Phi if sw is None else Phi * sw[:, None]
+    B = Y2 if sw is None else Y2 * sw[:, None]
+    if ridge > 0:
+        A = np.vstack([A, np.sqrt(ridge) * np.eye(n)])
+        B = np.vstack([B, np.zeros((n, B.shape[1]))])
+    Q, R = linalg.qr(A, mode="economic")
+    d = np.abs(np.diag(R))
+    tol = max(A.shape) * np.finfo(float).eps * (d.max() if d.size else 0.0)
+    rank = int(np.count_nonzero(d > tol))
+    if rank < n:
+        raise param_error("Phi", f"of full column rank n={n} (or use ridge > 0)",
+                          f"<a design of numerical rank {rank}>")
+    theta = linalg.solve_triangular(R, Q.T @ B, lower=False)
+    resid = Y2 - Phi @ theta
+    dof = N - n
+    wr2 = resid ** 2 if sw is None else (sw[:, None] * resid) ** 2
+    sigma2 = wr2.sum(axis=0) / dof if dof > 0 else np.full(Y2.shape[1], np.nan)
+    if single:
+        return LSResult(theta=theta[:, 0], residuals=resid[:, 0], sigma2=float(sigma2[0]),
+                        dof=dof, rank=rank, _R=R, _single=True)
+    return LSResult(theta=theta, residuals=resid, sigma2=sigma2, dof=dof, rank=rank,
+                    _R=R, _single=False)

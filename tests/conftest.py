@@ -1,0 +1,22 @@
+import os
+
+import numpy as np
+import pytest
+
+# Long-running soak tests are opt-in: `pytest -m soak`. CI runs shortened versions.
+SOAK = os.environ.get("ADAPTID_SOAK") == "1"
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(20261121)
+
+
+def pytest_collection_modifyitems(config, items):
+    markexpr = config.getoption("-m") or ""
+    if "soak" in markexpr or SOAK:
+        return
+    skip = pytest.mark.skip(reason="soak test: run with `pytest -m soak` (a shortened version runs in CI)")
+    for item in items:
+        if "soak" in item.keywords:
+            item.add_marker(skip)
