@@ -257,14 +257,12 @@ def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, bad):
 # Kalman filter for a random-walk parameter
 # --------------------------------------------------------------------------
 @njit(**NJIT_INLINE)
-def _time_update(U, D, Q, W, NP):
-    """U D Uᵀ ← U D Uᵀ + Q, re-factorised (upper U-D). False if not PD."""
-    for i in range(NP):
-        for j in range(i, NP):
-            s = Q[i, j] + D[j] * U[i, j] if i < j else Q[i, j] + D[j]
-            for k in range(j + 1, NP):
-                s += U[i, k] * D[k] * U[j, k]
-            W[i, j] = s
+def _udu_factor(W, U, D, NP):
+    """Upper U-D factorisation W = U diag(D) Uᵀ (only W's upper triangle is read).
+
+    U's strict upper triangle and D are overwritten; its diagonal must be 1
+    and its lower triangle 0 on entry. Returns False if W is not PD.
+    """
     for j in range(NP - 1, -1, -1):
         d = W[j, j]
         for k in range(j + 1, NP):
@@ -278,6 +276,18 @@ def _time_update(U, D, Q, W, NP):
                 s -= D[k] * U[i, k] * U[j, k]
             U[i, j] = s / d
     return True
+
+
+@njit(**NJIT_INLINE)
+def _time_update(U, D, Q, W, NP):
+    """U D Uᵀ ← U D Uᵀ + Q, re-factorised (upper U-D). False if not PD."""
+    for i in range(NP):
+        for j in range(i, NP):
+            s = Q[i, j] + D[j] * U[i, j] if i < j else Q[i, j] + D[j]
+            for k in range(j + 1, NP):
+                s += U[i, k] * D[k] * U[j, k]
+            W[i, j] = s
+    return _udu_factor(W, U, D, NP)
 
 
 @njit(**NJIT_INLINE)
@@ -526,16 +536,4 @@ def ud_factor(P, U, D):
     for i in range(n):
         for j in range(n):
             U[i, j] = 1.0 if i == j else 0.0
-    for j in range(n - 1, -1, -1):
-        d = P[j, j]
-        for k in range(j + 1, n):
-            d -= D[k] * U[j, k] * U[j, k]
-        if not (d > 0.0):
-            return False
-        D[j] = d
-        for i in range(j):
-            s = P[i, j]
-            for k in range(j + 1, n):
-                s -= D[k] * U[i, k] * U[j, k]
-            U[i, j] = s / d
-    return True
+    return _udu_factor(P, U, D, n)
