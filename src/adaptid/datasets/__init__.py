@@ -7,7 +7,10 @@
 * :func:`matlab_filtfilt`, :func:`matlab_decimate`,
   :func:`central_difference` — MATLAB-compatible filtering, decimation and
   differentiation, so that MATLAB scripts' printed numbers can be
-  reproduced.
+  reproduced;
+* :func:`dc_motor` — a simulated permanent-magnet DC motor driving a load
+  (the data set of ``adaptid demo``);
+* :func:`fleet` — a synthetic fleet of DC motors, some with a fault.
 
 The files are shipped unmodified with the package; their provenance and
 checksums are in ``adaptid/datasets/data/README.md``.
@@ -26,4 +29,18 @@ __all__ = [
     "matlab_filtfilt",
     "matlab_decimate",
     "central_difference",
+    "dc_motor",
+    "fleet",
 ]
+
+# generated data sets: imported on first use (they need pandas)
+_LAZY = {"dc_motor": "._dc_motor", "fleet": "._fleet"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'adaptid.datasets' has no attribute {name!r}")
