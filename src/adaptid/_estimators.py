@@ -268,6 +268,67 @@ class _RecursiveEstimator:
             f"at sample {where} (covariance windup: λ < 1 with a direction not excited?)",
             CovarianceWindupWarning, stacklevel=3)
 
+    # ------------------------------------------------------------ segments
+    def run_segments(self, Phi, y, offsets, *, weights=None, store=False):
+        r"""Run G independent streams stored back to back, in one compiled, parallel call.
+
+        Segment g is rows ``offsets[g]:offsets[g+1]`` of ``Phi`` and ``y``
+        (streams of different lengths, e.g. the telemetry of G devices). Each
+        segment starts from this estimator's prior (θ₀, P₀) with its options;
+        the estimator itself is not changed. Segment g's result is bit for
+        bit that of ``est.copy().reset().run(Phi[a:b], y[a:b])``.
+
+        Parameters
+        ----------
+        Phi : array_like, shape (N_total, n)
+        y : array_like, shape (N_total,) or (N_total, p)
+        offsets : array_like of int, shape (G + 1,)
+            Nondecreasing segment boundaries, ``offsets[0] = 0`` and
+            ``offsets[-1] = N_total``; empty segments are allowed.
+        weights : float or array_like, shape (N_total,), optional
+        store : bool
+            Also return the per-sample estimates (``theta_track``).
+
+        Returns
+        -------
+        SegmentResult
+            Final θ and P, sample counts, sums of squared a-priori errors per
+            segment, and the per-sample errors.
+        """
+        from ._segments import SegmentResult, check_offsets, segment_sums
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
+        N = Phi.shape[0]
+        off = check_offsets(offsets, N)
+        G = off.shape[0] - 1
+        S0 = np.zeros(self._state_length())
+        self._fill_initial(S0)
+        Sout = np.empty((G, S0.shape[0]))
+        Th, E, skipped = self._alloc((N,), store)
+        status = np.empty(G, dtype=np.int64)
+        self._segments_kernel(S0, Sout, Phi, Y, off, w, Th, E, skipped, status)
+        n_skip = segment_sums(skipped.astype(np.int64), off).astype(np.int64)
+        n_used = np.diff(off) - n_skip
+        sse = segment_sums(np.where(skipped[:, None], 0.0, E * E), off)
+        U, D = self._ud_views(Sout)
+        theta = self._theta_view(Sout).copy()
+        if self._single:
+            E, sse = E[:, 0], sse[:, 0]
+            Th = Th[..., 0] if store else None
+        elif not store:
+            Th = None
+        self._warn_segments(status)
+        return SegmentResult(theta=theta, P=_P_from_ud(U, D), n_samples=n_used,
+                             n_skipped=n_skip, sse=sse, error=E, skipped=skipped,
+                             theta_track=Th, offsets=off, status=status)
+
+    def _warn_segments(self, status):
+        bad = np.flatnonzero(status >= 0)
+        if bad.size:
+            warnings.warn(
+                f"{type(self).__name__}: in {bad.size} segment(s) (first: segment {int(bad[0])}, "
+                f"sample {int(status[bad[0]])}) the covariance factor lost positivity or "
+                "overflowed (covariance windup)", CovarianceWindupWarning, stacklevel=3)
+
     # ------------------------------------------------------------ prediction
     def predict(self, phi):
         r"""Predicted output :math:`\hat y = \varphi^T\hat\theta`.
@@ -541,6 +602,10 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
             self._warn_nonpositive(bad)
         return self._finish(Th, E, skipped, False, store)
 
+    def _segments_kernel(self, S0, Sout, Phi, Y, off, w, Th, E, skipped, status):
+        lam = self._lam_run(None, Phi.shape[:1])
+        self._kern.rls_run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, status)
+
     def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
         r"""Run B independent streams in one compiled, parallel call.
 
@@ -681,6 +746,15 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
             self._warn_rebuild(nreb)
         return self._finish(Th, E, skipped, False, store, nreb)
 
+    def _segments_kernel(self, S0, Sout, Phi, Y, off, w, Th, E, skipped, status):
+        lam = self._lam_run(None, Phi.shape[:1])
+        self._kern.window_run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped,
+                                       self.window, _config.DOWNDATE_RTOL, status)
+
+    def _warn_segments(self, status):
+        if status.sum():
+            self._warn_rebuild(int(status.sum()))
+
     def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
         """B independent streams in one compiled, parallel call. See :meth:`RLS.run_batched`."""
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True)
@@ -786,6 +860,10 @@ class KalmanRLS(_RecursiveEstimator):
         if bad >= 0:
             self._warn_nonpositive(bad)
         return self._finish(Th, E, skipped, False, store)
+
+    def _segments_kernel(self, S0, Sout, Phi, Y, off, w, Th, E, skipped, status):
+        self._kern.kalman_run_segments(S0, Sout, Phi, Y, off, self.noise_var, w,
+                                       self.process_cov, Th, E, skipped, status)
 
     def run_batched(self, Phi, y, *, weights=None, store=True):
         """B independent streams in one compiled, parallel call. See :meth:`RLS.run_batched`."""

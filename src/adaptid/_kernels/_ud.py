@@ -253,6 +253,22 @@ def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, bad):
                              skipped[s], NP, Y.shape[2])
 
 
+@njit(**NJIT_PARALLEL)
+def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, bad):
+    """G streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0.
+
+    Parallel over segments; segment g is bit for bit :func:`rls_run` from S0.
+    """
+    NP = Phi.shape[1]  # @np
+    for g in prange(offsets.shape[0] - 1):
+        a = offsets[g]
+        z = offsets[g + 1]
+        S = Sout[g]
+        S[:] = S0
+        bad[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                             skipped[a:z], NP, Y.shape[1])
+
+
 # --------------------------------------------------------------------------
 # Kalman filter for a random-walk parameter
 # --------------------------------------------------------------------------
@@ -361,6 +377,19 @@ def kalman_run_batched(S, Phi, Y, r2, w, Q, Th, E, skipped, bad):
     for s in prange(Phi.shape[0]):
         bad[s] = _kalman_stream(S[s], Phi[s], Y[s], r2, w[s], Q, Th[s], E[s],
                                 skipped[s], NP)
+
+
+@njit(**NJIT_PARALLEL)
+def kalman_run_segments(S0, Sout, Phi, Y, offsets, r2, w, Q, Th, E, skipped, bad):
+    """G Kalman streams back to back, each from S0 (see :func:`rls_run_segments`)."""
+    NP = Phi.shape[1]  # @np
+    for g in prange(offsets.shape[0] - 1):
+        a = offsets[g]
+        z = offsets[g + 1]
+        S = Sout[g]
+        S[:] = S0
+        bad[g] = _kalman_stream(S, Phi[a:z], Y[a:z], r2, w[a:z], Q, Th[a:z], E[a:z],
+                                skipped[a:z], NP)
 
 
 # --------------------------------------------------------------------------
@@ -524,6 +553,19 @@ def window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, rebuilds):
     for s in prange(Phi.shape[0]):
         rebuilds[s] = _window_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
                                      skipped[s], M, rtol, NP)
+
+
+@njit(**NJIT_PARALLEL)
+def window_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, M, rtol, rebuilds):
+    """G sliding-window streams back to back, each from S0 (see :func:`rls_run_segments`)."""
+    NP = Phi.shape[1]  # @np
+    for g in prange(offsets.shape[0] - 1):
+        a = offsets[g]
+        z = offsets[g + 1]
+        S = Sout[g]
+        S[:] = S0
+        rebuilds[g] = _window_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                                     skipped[a:z], M, rtol, NP)
 
 
 # --------------------------------------------------------------------------
