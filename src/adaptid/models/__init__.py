@@ -1,0 +1,73 @@
+r"""Model structures: regressor builders and input–output model objects.
+
+Regressor builders (each returns a :class:`Regression` — Φ, y, column
+names and the sample index of every row — ready for :func:`adaptid.lstsq`
+or any recursive estimator's ``run``):
+
+* :func:`arx_regressors` — ARX (na, nb, nk; several inputs);
+* :func:`fir_regressors` — finite impulse response;
+* :func:`trend_regressors` — polynomial trend 1, τ, …, τʳ (scaled time);
+* :func:`exponential_regressors` — sums of exponentials with given rates;
+* :func:`dc_motor_regressors` — DC-motor physics (electrical and mechanical
+  equations, :class:`DCMotorRegressors`);
+* :func:`table_regressors` — from a pandas DataFrame: columns, lags,
+  products, ``sign()``.
+
+Model objects (fit / fit_recursive / predict / simulate / fit_percent /
+aic / fpe / cov / to_control):
+
+* :class:`ARX` — least squares;
+* :class:`ARMAX` — extended least squares (recursive: RELS), optional
+  prediction-error refinement;
+* :class:`OE` — pseudo-linear regression (recursive: RPLR), Steiglitz–McBride.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from ._armax import ARMAX
+from ._arx import ARX
+from ._builders import (
+    arx_regressors,
+    exponential_regressors,
+    fir_regressors,
+    trend_regressors,
+)
+from ._oe import OE
+from ._polymodel import NotFittedError
+from ._regression import Regression
+from ._table import table_regressors
+
+# The DC-motor builder lives in its own module, loaded on first use.
+_LAZY = {
+    "dc_motor_regressors": "adaptid.models._dcmotor",
+    "DCMotorRegressors": "adaptid.models._dcmotor",
+}
+
+__all__ = [
+    "Regression",
+    "arx_regressors",
+    "fir_regressors",
+    "trend_regressors",
+    "exponential_regressors",
+    "table_regressors",
+    "dc_motor_regressors",
+    "DCMotorRegressors",
+    "ARX",
+    "ARMAX",
+    "OE",
+    "NotFittedError",
+]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'adaptid.models' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(__all__) | set(globals()))

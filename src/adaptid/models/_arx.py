@@ -1,0 +1,176 @@
+r"""The ARX model :math:`A(q)y_k = B(q)u_k + e_k`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._polymodel import _PolyModel
+
+__all__ = ["ARX"]
+
+
+class ARX(_PolyModel):
+    r"""ARX model, identified by (recursive) least squares.
+
+    .. math::
+
+        y_k + a_1y_{k-1} + \dots + a_{n_a}y_{k-n_a}
+          = \sum_i \big(b^{(i)}_0u^{(i)}_{k-n_k} + \dots
+                        + b^{(i)}_{n_b-1}u^{(i)}_{k-n_k-n_b+1}\big) + e_k,
+
+    i.e. :math:`y_k = \varphi_k^T\theta + e_k` with
+    :math:`\varphi_k = [-y_{k-1}, \dots, -y_{k-n_a}, u_{k-n_k}, \dots]` and
+    :math:`\theta = [a_1, \dots, a_{n_a}, b_0, \dots]` (MATLAB's ``arx``
+    convention). The rows are the samples k = s … N-1 whose lags are all
+    measured, :math:`s = \max(n_a, n_k + n_b - 1)` (no assumed initial
+    values).
+
+    Parameters
+    ----------
+    na : int
+        Order of A, ``>= 0``.
+    nb : int or sequence of int
+        Number of B coefficients (per input), ``>= 0``.
+    nk : int or sequence of int
+        Input delay (per input), ``>= 0`` (default 1).
+    dt : float
+        Sample time (default 1.0), used by :meth:`to_control`.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (d,)
+        ``[a1, …, a_na, b…]`` after :meth:`fit` (None before).
+    cov : ndarray, shape (d, d)
+        Parameter covariance :math:`\hat\sigma^2(\Phi^T\Phi)^{-1}`,
+        :math:`\hat\sigma^2 = \sum\varepsilon^2/(N-d)`.
+    stderr : ndarray, shape (d,)
+    residuals : ndarray, shape (N - s,)
+        Prediction errors of the fit's rows.
+    noise_variance : float
+        :math:`\hat\sigma^2`.
+    names : tuple of str
+        ``("a1", …, "b0", …)`` or ``"b0_0"`` … per input for several inputs.
+    A, B, C, F : ndarray
+        Polynomials (C = F = [1]).
+    aic, fpe, loss : float
+
+    References
+    ----------
+    .. [1] L. Ljung, *System Identification: Theory for the User*, 2nd ed.,
+       Prentice Hall, 1999, secs. 4.2, 7.3 and 16.4 (AIC, FPE).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import lfilter
+    >>> from adaptid.models import ARX
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal(2000); e = 0.1 * rng.standard_normal(2000)
+    >>> y = lfilter([0, 1.0, 0.5], [1, -1.5, 0.7], u) + lfilter([1], [1, -1.5, 0.7], e)
+    >>> m = ARX(2, 2, 1).fit(y, u)
+    >>> bool(np.allclose(m.theta, [-1.5, 0.7, 1.0, 0.5], atol=0.02))
+    True
+    """
+
+    _order_names = ("na", "nb", "nk")
+
+    def __init__(self, na, nb, nk=1, *, dt=1.0):
+        self._init_orders(na, nb, 0, 0, nk, dt)
+
+    def _split(self, theta):
+        a = theta[: self.na]
+        bs, o = [], self.na
+        for b in self._nb:
+            bs.append(theta[o: o + b])
+            o += b
+        return a, bs, np.zeros(0), [np.zeros(0)] * self._m
+
+    def _names(self):
+        names = [f"a{j}" for j in range(1, self.na + 1)]
+        for i, b in enumerate(self._nb):
+            names += [f"b{j}" if self._single else f"b{i}_{j}" for j in range(b)]
+        return tuple(names)
+
+    def _prepare(self, y, u):
+        y, U = self._data(y, u, fitting=True)
+        reg, Phi = self._fixed_regression(y, U, self._single)
+        return reg, Phi
+
+    def fit(self, y, u):
+        r"""Least-squares fit on the whole record (QR, :func:`adaptid.lstsq`).
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+        u : array_like, shape (N,) or (N, m)
+
+        Returns
+        -------
+        self
+        """
+        from .._lstsq import lstsq
+
+        reg, Phi = self._prepare(y, u)
+        res = lstsq(Phi, reg.y)
+        self.theta = np.asarray(res.theta, dtype=np.float64)
+        self.cov = np.asarray(res.cov)
+        self.noise_variance = float(res.sigma2)
+        self.residuals = np.asarray(res.residuals)
+        self.index = reg.index
+        self.names = self._names()
+        self.result = res
+        return self
+
+    def fit_recursive(self, y, u, estimator=None):
+        r"""Fit with a recursive estimator of the core, in one compiled pass.
+
+        The ARX regressors do not depend on the estimates, so Φ is built
+        once and a *copy* of ``estimator`` runs over it (the argument is not
+        modified; the fitted copy is kept as ``self.estimator``).
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+        u : array_like, shape (N,) or (N, m)
+        estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
+            With ``n_params`` equal to the model's d; its options
+            (forgetting — a float or a strategy object —, window, process
+            covariance, prior) are used as they are. Default
+            ``adaptid.RLS(d)``.
+
+        Returns
+        -------
+        Trajectory
+            ``theta[i]`` is the estimate after row i (sample
+            ``meta["index"][i]``). The model takes the final estimate,
+            ``cov`` = σ̂² P (meaningful without forgetting).
+        """
+        from .._estimators import RLS, KalmanRLS, SlidingWindowRLS
+        from .._validation import param_error
+
+        reg, Phi = self._prepare(y, u)
+        d = Phi.shape[1]
+        if estimator is None:
+            est = RLS(d)
+        elif isinstance(estimator, (RLS, SlidingWindowRLS, KalmanRLS)):
+            if estimator.n_params != d:
+                raise param_error("estimator", f"an estimator with n_params={d} (the model's "
+                                  "parameters)", f"<n_params={estimator.n_params}>")
+            est = estimator.copy()
+        else:
+            raise param_error("estimator", "None or an adaptid RLS, SlidingWindowRLS or KalmanRLS",
+                              estimator, exc=TypeError)
+        traj = est.run(Phi, reg.y)
+        self.theta = np.asarray(est.theta, dtype=np.float64).reshape(-1)
+        self.residuals = reg.y - Phi @ self.theta
+        N = self.residuals.size
+        self.noise_variance = float(self.residuals @ self.residuals) / max(N - d, 1)
+        self.cov = self.noise_variance * np.asarray(est.P)
+        self.index = reg.index
+        self.names = self._names()
+        self.estimator = est
+        import dataclasses
+
+        meta = dict(traj.meta)
+        meta.update(index=reg.index, names=self.names)
+        return dataclasses.replace(traj, meta=meta)

@@ -1,0 +1,128 @@
+r"""Shared parts of the pseudo-linear models (ARMAX, OE): prediction errors,
+their gradient, the recursive fit and the prediction-error refinement."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import optimize, signal
+
+from ._polymodel import _PolyModel
+from ._recursive import run_pseudolinear
+
+__all__ = ["_PseudoLinearModel", "lagmat", "stabilize"]
+
+
+def lagmat(x, n):
+    """Columns x[t-1], …, x[t-n] (zeros before the start), shape (len(x), n)."""
+    N = x.shape[0]
+    out = np.zeros((N, n))
+    for j in range(1, n + 1):
+        out[j:, j - 1] = x[: N - j] if j < N else 0.0
+    return out
+
+
+def stabilize(p):
+    """Reflect the roots of a monic polynomial in q⁻¹ into the unit disc."""
+    if p.size <= 1:
+        return p
+    r = np.roots(p)
+    bad = np.abs(r) > 1.0
+    if not bad.any():
+        return p
+    r[bad] = 1.0 / np.conj(r[bad])
+    return np.real(np.poly(r))
+
+
+class _PseudoLinearModel(_PolyModel):
+    """Models whose regressor holds signals computed from the estimate."""
+
+    # subclass: _nd (number of dynamic columns), _alpha, _beta, _sgn,
+    # _errors(theta, Phi_fix, Y) -> (eps, Psi), _names()
+
+    def _prepare(self, y, u):
+        y, U = self._data(y, u, fitting=True)
+        self._check_inputs(U)
+        reg, Phi = self._fixed_regression(y, U, self._single)
+        return reg, Phi
+
+    def _check_inputs(self, U):
+        pass
+
+    def _finish(self, theta, Phi_fix, Y, reg):
+        self.theta = np.asarray(theta, dtype=np.float64)
+        eps, Psi = self._errors(self.theta, Phi_fix, Y)
+        self.residuals = eps
+        self._set_cov_from_gradient(Psi, eps)
+        self.index = reg.index
+        self.names = self._names()
+
+    def _refine(self, theta, Phi_fix, Y, max_nfev=None):
+        """Minimise Σ ε(θ)² (the prediction-error criterion) from ``theta``."""
+        def fun(th):
+            return self._errors(th, Phi_fix, Y)[0]
+
+        def jac(th):
+            return -self._errors(th, Phi_fix, Y)[1]
+
+        sol = optimize.least_squares(fun, theta, jac=jac, method="trf", x_scale="jac",
+                                     max_nfev=max_nfev)
+        self.refine_result = sol
+        return self._stable(sol.x)
+
+    def _stable(self, theta):
+        return theta
+
+    def fit_recursive(self, y, u, estimator=None, *, refine=False):
+        r"""Recursive pseudo-linear regression in one compiled pass.
+
+        The regressor of sample k contains signals built from the estimates
+        up to k-1 (see the class description), so Φ cannot be precomputed;
+        a numba kernel runs the whole recursion (covariance form, P kept
+        symmetric) with the algorithm of ``estimator``:
+
+        .. math::
+
+            \varepsilon_k = y_k - \varphi_k^T\hat\theta_{k-1},\quad
+            K_k = \frac{P_{k-1}\varphi_k}{\lambda r_2 + \varphi_k^TP_{k-1}\varphi_k},\quad
+            \hat\theta_k = \hat\theta_{k-1} + K_k\varepsilon_k,\quad
+            P_k = \frac{P_{k-1} - K_k\varphi_k^TP_{k-1}}{\lambda} + R_1,
+
+        with λ the (constant) forgetting factor of an :class:`~adaptid.RLS`
+        or :class:`~adaptid.SlidingWindowRLS` (whose window also removes the
+        sample k - M with weight :math:`\lambda^M`), or
+        :math:`\lambda = 1`, :math:`r_2 = R_2`, :math:`R_1` of a
+        :class:`~adaptid.KalmanRLS` (:math:`r_2 = 1`, :math:`R_1 = 0`
+        otherwise). Söderström & Stoica (1989), sec. 9.4 (RPLR).
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+        u : array_like, shape (N,) or (N, m)
+        estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
+            Read, not modified: its options and current θ, P are the
+            starting point. Forgetting must be a constant float here.
+            Default: RLS with θ₀ = 0, P₀ = 10⁴ I, no forgetting.
+        refine : bool
+            Follow with the prediction-error refinement (see :meth:`fit`).
+
+        Returns
+        -------
+        Trajectory
+            Row i is the estimate after row i of the regression (sample
+            ``meta["index"][i]``); ``error`` the a-priori errors. The model
+            takes the final estimate; ``cov`` is the prediction-error
+            covariance at it.
+        """
+        reg, Phi_fix = self._prepare(y, u)
+        Th, E, V, theta, P = run_pseudolinear(Phi_fix, reg.y, self._nd, self._alpha,
+                                              self._beta, self._sgn, estimator)
+        theta = self._stable(theta)
+        if refine:
+            theta = self._refine(theta, Phi_fix, reg.y)
+        self._finish(theta, Phi_fix, reg.y, reg)
+        self.P = P
+        return self._trajectory(Th, E, reg.index, self.names)
+
+    @staticmethod
+    def _filt(den, X):
+        return signal.lfilter([1.0], den, X, axis=0)

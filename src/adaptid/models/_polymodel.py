@@ -1,0 +1,354 @@
+r"""Shared machinery of the polynomial input–output models (ARX, ARMAX, OE).
+
+All three are special cases of
+
+.. math::
+
+    A(q)\,y_k = \sum_{i} \frac{B_i(q)}{F_i(q)}\,u^{(i)}_k + C(q)\,e_k,
+
+with monic polynomials in the backward shift :math:`q^{-1}`
+(:math:`A = 1 + a_1q^{-1} + \dots + a_{n_a}q^{-n_a}`, the same for C and F)
+and :math:`B_i(q) = q^{-n_k}(b_0 + b_1q^{-1} + \dots + b_{n_b-1}q^{-n_b+1})`.
+Predictions and simulations are linear filters evaluated with
+:func:`scipy.signal.lfilter` (zero initial conditions: signals are taken as
+zero before the first sample).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from .._trajectory import Trajectory
+from .._validation import as_float_array, check_choice, check_int, check_scalar, param_error
+from ._builders import _as_inputs, _per_input, arx_regressors
+
+__all__ = ["_PolyModel"]
+
+
+class NotFittedError(RuntimeError):
+    """Raised when a model is used before ``fit``."""
+
+
+def _pad_to(p, L):
+    out = np.zeros(L)
+    out[: p.size] = p
+    return out
+
+
+def _poly_sub(a, b):
+    L = max(a.size, b.size)
+    return _pad_to(a, L) - _pad_to(b, L)
+
+
+class _PolyModel:
+    """Common base; see :class:`ARX`, :class:`ARMAX`, :class:`OE`."""
+
+    _structure = "poly"
+
+    def _init_orders(self, na, nb, nc, nf, nk, dt):
+        self.na = check_int(na, "na", low=0)
+        self.nc = check_int(nc, "nc", low=0)
+        self.nf = check_int(nf, "nf", low=0)
+        self._nb_spec, self._nk_spec = nb, nk
+        self.nb, self.nk = nb, nk
+        # validate the scalar / per-input specs now (number of inputs known at fit)
+        if np.ndim(nb) == 0:
+            check_int(nb, "nb", low=0)
+        else:
+            [check_int(v, f"nb[{i}]", low=0) for i, v in enumerate(np.ravel(nb))]
+        if np.ndim(nk) == 0:
+            check_int(nk, "nk", low=0)
+        else:
+            [check_int(v, f"nk[{i}]", low=0) for i, v in enumerate(np.ravel(nk))]
+        self.dt = check_scalar(dt, "dt", low=0.0, low_open=True)
+        self.theta = None
+
+    # ------------------------------------------------------------ structure
+    @property
+    def n_params(self):
+        """Number of estimated parameters d (known once the number of inputs is)."""
+        self._check_fitted()
+        return self.theta.size
+
+    def _set_inputs(self, m, single):
+        self._m, self._single = m, single
+        self._nb = _per_input(self._nb_spec, "nb", m, low=0)
+        self._nk = _per_input(self._nk_spec, "nk", m, low=0)
+
+    def _data(self, y, u, *, fitting=False):
+        """Validate (y, u); at fit time fix the number of inputs."""
+        y = as_float_array(y, "y", ndim=1)
+        U, single = _as_inputs(u, y.shape[0])
+        if fitting:
+            self._set_inputs(U.shape[1], single)
+        else:
+            self._check_fitted()
+            if U.shape[1] != self._m:
+                raise param_error("u", f"with {self._m} input column(s) as at fit time",
+                                  f"<{U.shape[1]} columns>")
+        return y, U
+
+    def _inputs(self, u):
+        self._check_fitted()
+        arr = as_float_array(u, "u", ndim=(1, 2))
+        U = arr.reshape(-1, 1) if arr.ndim == 1 else arr
+        if U.shape[1] != self._m:
+            raise param_error("u", f"with {self._m} input column(s) as at fit time",
+                              f"<{U.shape[1]} columns>")
+        return U
+
+    def _check_fitted(self):
+        if self.theta is None:
+            raise NotFittedError(f"this {type(self).__name__} is not fitted yet: call fit() "
+                                 "or fit_recursive() first")
+
+    def _fixed_regression(self, y, U, single):
+        """ARX part of the regressors (signs: −y lags, +u lags), rows k = s … N-1."""
+        if self.na + sum(self._nb) == 0:
+            raise param_error("na + sum(nb)", ">= 1 for this model", 0)
+        reg = arx_regressors(y, U[:, 0] if single else U, self.na, self._nb, self._nk)
+        Phi = reg.Phi.copy()
+        Phi[:, : self.na] *= -1.0
+        return reg, Phi
+
+    # ------------------------------------------------------ parameter layout
+    def _split(self, theta):
+        """θ → (a, [b_i], c, f) with a, c, f excluding the leading 1."""
+        raise NotImplementedError
+
+    def _polys(self, theta=None):
+        theta = self.theta if theta is None else theta
+        a, bs, c, fs = self._split(theta)
+        A = np.concatenate([[1.0], a])
+        Bs = [np.concatenate([np.zeros(k), b]) if b.size else np.zeros(max(k, 1))
+              for b, k in zip(bs, self._nk)]
+        C = np.concatenate([[1.0], c])
+        Fs = [np.concatenate([[1.0], f]) for f in fs]
+        return A, Bs, C, Fs
+
+    @property
+    def A(self):
+        r"""A polynomial, shape (na + 1,): ``[1, a1, …, a_na]`` (powers of :math:`q^{-1}`)."""
+        self._check_fitted()
+        return self._polys()[0]
+
+    @property
+    def B(self):
+        r"""B polynomial(s) with ``nk`` leading zeros: shape (nk + nb,), or (m, L) zero-padded for m inputs."""
+        self._check_fitted()
+        Bs = self._polys()[1]
+        if self._single:
+            return Bs[0]
+        L = max(b.size for b in Bs)
+        return np.vstack([_pad_to(b, L) for b in Bs])
+
+    @property
+    def C(self):
+        """C polynomial, shape (nc + 1,) (``[1.]`` for ARX and OE)."""
+        self._check_fitted()
+        return self._polys()[2]
+
+    @property
+    def F(self):
+        """F polynomial(s), shape (nf + 1,) or (m, nf + 1) (``[1.]`` for ARX and ARMAX)."""
+        self._check_fitted()
+        Fs = self._polys()[3]
+        if self._single:
+            return Fs[0]
+        L = max(f.size for f in Fs)
+        return np.vstack([_pad_to(f, L) for f in Fs])
+
+    # --------------------------------------------------------- statistics
+    @property
+    def stderr(self):
+        """Standard errors √diag(cov), shape (d,)."""
+        self._check_fitted()
+        return np.sqrt(np.diag(self.cov))
+
+    @property
+    def loss(self):
+        r"""Loss function :math:`V = \frac1N\sum_k\varepsilon_k^2` of the fit's prediction errors."""
+        self._check_fitted()
+        r = self.residuals
+        return float(r @ r / r.size)
+
+    @property
+    def aic(self):
+        r"""Akaike's information criterion of the fit (Gaussian likelihood).
+
+        .. math::
+
+            \mathrm{AIC} = N\log V + 2d + N(\log 2\pi + 1) = -2\log L(\hat\theta,\hat\sigma^2) + 2d,
+
+        with N the number of prediction errors, d the number of parameters
+        and :math:`V` the :attr:`loss` (the ML estimate of the noise
+        variance). This is MATLAB's "raw" ``aic`` and statsmodels' OLS
+        ``aic`` (which counts the regression coefficients only).
+        """
+        N, d, V = self.residuals.size, self.n_params, self.loss
+        return float(N * np.log(V) + 2 * d + N * (np.log(2 * np.pi) + 1.0))
+
+    @property
+    def fpe(self):
+        r"""Akaike's final prediction error :math:`V\,(1 + d/N)/(1 - d/N)` (Ljung 1999, eq. 16.31)."""
+        N, d, V = self.residuals.size, self.n_params, self.loss
+        if N <= d:
+            return float("inf")
+        return float(V * (1 + d / N) / (1 - d / N))
+
+    def _set_cov_from_gradient(self, Psi, eps):
+        """cov = σ̂² (ΨᵀΨ)⁻¹ by QR (asymptotic PEM covariance, Ljung 1999, eq. 9.17)."""
+        from .._lstsq import lstsq
+
+        N, d = Psi.shape
+        res = lstsq(Psi, eps)
+        sigma2 = float(eps @ eps) / max(N - d, 1)
+        self.noise_variance = sigma2
+        self.cov = sigma2 * res.unscaled_cov
+
+    # --------------------------------------------------------- prediction
+    def _hbar(self, k, A, C):
+        """First k impulse-response coefficients of the noise model H = C / A."""
+        imp = np.zeros(k)
+        imp[0] = 1.0
+        return signal.lfilter(C, A, imp)
+
+    def predict(self, y, u, k=1):
+        r"""k-step-ahead prediction :math:`\hat y_{t|t-k}` of the output.
+
+        With :math:`G_i = B_i/(A F_i)`, the noise model :math:`H = C/A` and
+        :math:`\bar H_k` its impulse response truncated to k terms
+        (Ljung 1999, eq. 3.31):
+
+        .. math::
+
+            \hat y_{t|t-k} = \bar H_k H^{-1}\sum_i G_i u^{(i)}_t
+                + (1 - \bar H_k H^{-1})\,y_t
+            = \sum_i\frac{\bar H_k B_i}{C F_i}u^{(i)}_t + \frac{C - \bar H_k A}{C}\,y_t .
+
+        k = 1 is the one-step predictor; for OE (H = 1) every k gives the
+        simulation. Signals are taken as zero before the first sample.
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+        u : array_like, shape (N,) or (N, m)
+        k : int
+            Prediction horizon, ``>= 1`` (default 1).
+
+        Returns
+        -------
+        ndarray, shape (N,)
+        """
+        y, U = self._data(y, u)
+        k = check_int(k, "k", low=1)
+        A, Bs, C, Fs = self._polys()
+        Hk = self._hbar(k, A, C)
+        out = signal.lfilter(_poly_sub(C, np.convolve(Hk, A)), C, y)
+        for i in range(self._m):
+            out = out + signal.lfilter(np.convolve(Hk, Bs[i]), np.convolve(C, Fs[i]), U[:, i])
+        return out
+
+    def simulate(self, u, *, noise=None):
+        r"""Simulated output from the input alone (zero initial conditions).
+
+        .. math::
+
+            y_t = \sum_i \frac{B_i(q)}{A(q)F_i(q)}u^{(i)}_t + \frac{C(q)}{A(q)}e_t,
+
+        the noise term only when ``noise`` (the sequence e) is given.
+
+        Parameters
+        ----------
+        u : array_like, shape (N,) or (N, m)
+        noise : array_like, shape (N,), optional
+
+        Returns
+        -------
+        ndarray, shape (N,)
+        """
+        U = self._inputs(u)
+        A, Bs, C, Fs = self._polys()
+        out = np.zeros(U.shape[0])
+        for i in range(self._m):
+            out += signal.lfilter(Bs[i], np.convolve(A, Fs[i]), U[:, i])
+        if noise is not None:
+            e = as_float_array(noise, "noise", shape=(U.shape[0],))
+            out += signal.lfilter(C, A, e)
+        return out
+
+    def fit_percent(self, y, u, *, k=None):
+        r"""Normalised fit (NRMSE, percent) of the simulation or the k-step prediction.
+
+        ``k=None`` (default) compares ``y`` with :meth:`simulate`, an
+        integer with :meth:`predict` at that horizon;
+        see :func:`adaptid.diagnostics.fit_percent`.
+        """
+        from ..diagnostics import fit_percent
+
+        y, U = self._data(y, u)
+        y_hat = self.simulate(U) if k is None else self.predict(y, U, k=k)
+        return fit_percent(y, y_hat)
+
+    # ------------------------------------------------------------ control
+    def to_control(self, form="tf"):
+        r"""The input–output model :math:`G_i = B_i/(A F_i)` as a python-control system.
+
+        Parameters
+        ----------
+        form : {"tf", "ss"}
+            ``"tf"``: a discrete :class:`control.TransferFunction` (one input
+            per column; the polynomials in :math:`q^{-1}` are padded to a
+            common length and read as polynomials in z). ``"ss"``: a discrete
+            :class:`control.StateSpace` (for several inputs, the parallel
+            connection of each input's controllable realisation, not
+            necessarily minimal).
+
+        Returns
+        -------
+        control.TransferFunction or control.StateSpace
+            With ``dt`` equal to the model's sample time.
+
+        Raises
+        ------
+        ImportError
+            If python-control is not installed (``pip install 'adaptid[control]'``).
+        """
+        check_choice(form, "form", ("tf", "ss"))
+        self._check_fitted()
+        try:
+            import control
+        except ImportError as err:  # pragma: no cover - depends on the extra
+            raise ImportError("to_control needs python-control: pip install 'adaptid[control]'") from err
+        A, Bs, C, Fs = self._polys()
+        nums, dens = [], []
+        for i in range(self._m):
+            den = np.convolve(A, Fs[i])
+            L = max(den.size, Bs[i].size)
+            nums.append(_pad_to(Bs[i], L))
+            dens.append(_pad_to(den, L))
+        if form == "tf":
+            if self._m == 1:
+                return control.tf(nums[0], dens[0], self.dt)
+            return control.tf([nums], [dens], self.dt)
+        blocks = [signal.tf2ss(np.trim_zeros(nb_, "f") if np.any(nb_) else np.zeros(1), db_)
+                  for nb_, db_ in zip(nums, dens)]
+        from scipy.linalg import block_diag
+
+        Ass = block_diag(*[b[0] for b in blocks]) if blocks else np.zeros((0, 0))
+        Bss = block_diag(*[b[1] for b in blocks])
+        Css = np.hstack([b[2] for b in blocks])
+        Dss = np.hstack([b[3] for b in blocks])
+        return control.ss(Ass, Bss, Css, Dss, self.dt)
+
+    # -------------------------------------------------------- recursive util
+    @staticmethod
+    def _trajectory(theta, error, index, names):
+        return Trajectory(theta=theta, error=error, skipped=np.zeros(error.shape[0], dtype=bool),
+                          meta={"index": index, "names": names})
+
+    def __repr__(self):
+        orders = ", ".join(f"{k}={getattr(self, k)}" for k in self._order_names)
+        state = "fitted" if self.theta is not None else "not fitted"
+        return f"{type(self).__name__}({orders}, dt={self.dt:g}) [{state}]"

@@ -1,0 +1,68 @@
+"""Run the compiled pseudo-linear recursion with the settings of a core estimator."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .._exceptions import DefinitenessLossWarning
+from .._validation import param_error
+from ._kernels import pseudolinear_run
+
+__all__ = ["estimator_settings", "run_pseudolinear"]
+
+
+def estimator_settings(estimator, n):
+    """(λ, Q, r2, M, θ, P) from an RLS / SlidingWindowRLS / KalmanRLS (or defaults).
+
+    The estimator is read, never modified: its current θ and P are the
+    starting point (θ₀, P₀ for a fresh one), its options the algorithm.
+    """
+    from .._estimators import RLS, KalmanRLS, SlidingWindowRLS
+
+    if estimator is None:
+        return 1.0, np.zeros((n, n)), 1.0, 0, np.zeros(n), np.eye(n) * 1e4
+    if not isinstance(estimator, (RLS, SlidingWindowRLS, KalmanRLS)):
+        raise param_error("estimator", "None or an adaptid RLS, SlidingWindowRLS or KalmanRLS",
+                          estimator, exc=TypeError)
+    if estimator.n_params != n:
+        raise param_error("estimator", f"an estimator with n_params={n} (the model's parameters)",
+                          f"<n_params={estimator.n_params}>")
+    if estimator.batch_size is not None or not estimator._single:
+        raise param_error("estimator", "a single-stream, single-output estimator",
+                          "<a batched or multi-output estimator>")
+    theta = np.array(estimator.theta, dtype=np.float64)
+    P = np.ascontiguousarray(estimator.P, dtype=np.float64)
+    lam, Q, r2, M = 1.0, np.zeros((n, n)), 1.0, 0
+    if isinstance(estimator, KalmanRLS):
+        Q = np.ascontiguousarray(estimator.process_cov, dtype=np.float64)
+        r2 = float(estimator.noise_var)
+    else:
+        lam = estimator.forgetting
+        if not isinstance(lam, (float, int, np.floating)) or isinstance(lam, bool):
+            raise param_error("estimator.forgetting",
+                              "a constant float λ for the ARMAX/OE recursions", lam, exc=TypeError)
+        lam = float(lam)
+        if isinstance(estimator, SlidingWindowRLS):
+            M = int(estimator.window)
+    return lam, Q, r2, M, theta, P
+
+
+def run_pseudolinear(Phi_fix, Y, nd, alpha, beta, sgn, estimator):
+    """One compiled RELS / PLR pass; returns (Th, E, V, theta, P)."""
+    n = Phi_fix.shape[1] + nd
+    lam, Q, r2, M, theta, P = estimator_settings(estimator, n)
+    N = Y.shape[0]
+    Th = np.empty((N, n))
+    E = np.empty(N)
+    V = np.empty(N)
+    refused = pseudolinear_run(np.ascontiguousarray(Phi_fix, dtype=np.float64),
+                               np.ascontiguousarray(Y, dtype=np.float64), nd,
+                               float(alpha), float(beta), float(sgn), theta, P,
+                               lam, Q, r2, M, Th, E, V)
+    if refused:
+        warnings.warn(f"{refused} window removal(s) refused: they would have made P indefinite "
+                      "(the window then holds older samples too)", DefinitenessLossWarning,
+                      stacklevel=3)
+    return Th, E, V, theta, P
