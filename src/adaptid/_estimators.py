@@ -15,6 +15,7 @@ import warnings
 import numpy as np
 
 from . import _config, _kernels
+from .forgetting import ConstantTrace, EFRA, resolve as _resolve_forgetting
 from ._exceptions import CovarianceWindupWarning, DefinitenessLossWarning
 from ._trajectory import Trajectory
 from ._validation import (
@@ -58,7 +59,7 @@ class _RecursiveEstimator:
     _kind = "base"
 
     def __init__(self, n_params, *, theta0=None, P0=1e4, nan_policy="raise",
-                 n_outputs=None):
+                 n_outputs=None, windup_threshold=None):
         n = check_int(n_params, "n_params", low=1)
         self.nan_policy = check_choice(nan_policy, "nan_policy", _NAN_POLICIES)
         if n_outputs is not None:
@@ -82,6 +83,14 @@ class _RecursiveEstimator:
         self.theta0 = th0
         self.P0 = check_spd(P0, "P0", n)
         self._U0, self._D0 = _ud_from_P(self.P0)
+        if windup_threshold is None:
+            scale = float(np.max(np.diag(self.P0)))
+            Q = getattr(self, "process_cov", None)
+            if Q is not None:
+                scale = max(scale, float(np.max(np.diag(Q))))
+            windup_threshold = 1e6 * scale
+        self.windup_threshold = check_scalar(windup_threshold, "windup_threshold", low=0.0,
+                                             low_open=True, finite=False)
         self._kern = _kernels.get(n)
         self._e = np.empty(self.n_outputs)
         self._ybuf = np.empty(1)
@@ -236,13 +245,14 @@ class _RecursiveEstimator:
                               f"<{B} streams>")
         return S
 
-    def _finish(self, Th, E, skipped, batched, store, n_rebuilds=0):
+    def _finish(self, Th, E, skipped, batched, store, n_rebuilds=0, lk=None):
         if self._single:
             Th = Th[..., 0]
             E = E[..., 0]
         if not store:
             Th = Th[..., :0, :] if self._single else Th[..., :0, :, :]
-        return Trajectory(theta=Th, error=E, skipped=skipped, n_rebuilds=int(n_rebuilds))
+        return Trajectory(theta=Th, error=E, skipped=skipped, n_rebuilds=int(n_rebuilds),
+                          forgetting=lk)
 
     def _alloc(self, shape_N, store):
         n, p = self.n_params, self.n_outputs
@@ -264,9 +274,31 @@ class _RecursiveEstimator:
             return  # once per episode: reset() re-arms the warning
         self._windup_warned = True
         warnings.warn(
-            f"{type(self).__name__}: the covariance factor lost positivity or overflowed "
-            f"at sample {where} (covariance windup: λ < 1 with a direction not excited?)",
+            f"{type(self).__name__}: covariance windup at sample {where}: a pivot of "
+            f"P = U D Uᵀ passed windup_threshold={self.windup_threshold:.3g}, overflowed or "
+            "lost positivity (forgetting with a direction not excited? see adaptid.forgetting)",
             CovarianceWindupWarning, stacklevel=3)
+
+    def _check_final_windup(self):
+        """After a run whose kernel does not watch the pivots (the window's)."""
+        _, D = self._ud_views(self._S)
+        if not np.all((D > 0) & (D < self.windup_threshold)):
+            self._warn_nonpositive(f"≤ {self.n_updates}")
+
+    @property
+    def excitation(self):
+        r"""Smallest eigenvalue of the information matrix :math:`R = P^{-1}`.
+
+        For RLS with forgetting R is the exponentially weighted information
+        :math:`\sum_j \lambda^{k-j}w_j\varphi_j\varphi_j^T` plus the decayed
+        prior; for the sliding window the information of the samples in the
+        window plus the decayed prior. A value near zero (relative to the
+        regressors' scale) means some direction is not excited: its
+        parameter combination is not identifiable from the recent data.
+        Float, or (B,) after ``run_batched``.
+        """
+        ev = np.linalg.eigvalsh(self.P)
+        return 1.0 / ev[..., -1] if self._batch is not None else float(1.0 / ev[-1])
 
     # ------------------------------------------------------------ segments
     def run_segments(self, Phi, y, offsets, *, weights=None, store=False):
@@ -360,7 +392,7 @@ class _RecursiveEstimator:
 
     # ------------------------------------------------------- state round trip
     def _options(self) -> dict:
-        return {"nan_policy": self.nan_policy}
+        return {"nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
 
     def get_state(self) -> dict:
         """Everything needed to resume exactly: options, prior and the state vector.
@@ -451,13 +483,25 @@ class _ForgettingMixin:
 
     def _lam_step(self, forgetting):
         if forgetting is None:
-            return self.forgetting
+            return self._lam if self._lam is not None else 1.0
+        self._no_strategy("forgetting")
         return self._check_lambda(forgetting)
 
     def _lam_run(self, forgetting, shape_N):
         if forgetting is None:
-            forgetting = self.forgetting
+            forgetting = self._lam if self._lam is not None else 1.0
+        else:
+            self._no_strategy("forgetting")
         return self._per_sample(forgetting, "forgetting", shape_N, low=0.0, high=1.0, low_open=True)
+
+    def _no_strategy(self, name):
+        if getattr(self, "_strategy", None) is not None:
+            raise param_error(name, f"None (per-sample λ needs exponential forgetting; this "
+                              f"estimator uses {type(self._strategy).__name__})", "<a value>")
+
+    def _forgetting_option(self):
+        f = self.forgetting
+        return f if isinstance(f, float) else f.to_dict()
 
 
 class RLS(_ForgettingMixin, _RecursiveEstimator):
@@ -488,9 +532,22 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
     ----------
     n_params : int
         Number of parameters n.
-    forgetting : float, optional
+    forgetting : float or ForgettingStrategy, optional
         λ ∈ (0, 1]; 1 (default) means no forgetting. Per-sample values are
-        given to :meth:`update` / :meth:`run`.
+        given to :meth:`update` / :meth:`run`. Or a strategy of
+        :mod:`adaptid.forgetting` (``Directional``, ``ConstantTrace``,
+        ``EFRA``, ``Variable``) that keeps P bounded when excitation is lost;
+        the factor it applied at each sample is ``Trajectory.forgetting``.
+    P_max : float, optional
+        Bound on the diagonal of P for exponential, directional and
+        variable forgetting: λₖ is raised towards 1 whenever forgetting
+        would take a diagonal element of P past ``P_max`` (conditional
+        forgetting; P never exceeds max(P_max, diag P₀) then).
+    windup_threshold : float, optional
+        A :class:`~adaptid.CovarianceWindupWarning` is emitted (once, until
+        :meth:`reset`) when a pivot :math:`D_i` of :math:`P = UDU^T` passes
+        it (each pivot is at most trace(P)), or when P loses definiteness.
+        Default ``1e6 * max(diag(P0))``; ``inf`` watches definiteness only.
     theta0 : array_like, shape (n,) or (n, p), optional
         Prior mean θ₀ (default zeros).
     P0 : float or array_like, shape (n, n)
@@ -533,14 +590,27 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
 
     _kind = "RLS"
 
-    def __init__(self, n_params, *, forgetting=1.0, theta0=None, P0=1e4,
-                 nan_policy="raise", n_outputs=None):
-        self.forgetting = self._check_lambda(forgetting)
+    def __init__(self, n_params, *, forgetting=1.0, P_max=None, theta0=None, P0=1e4,
+                 nan_policy="raise", n_outputs=None, windup_threshold=None):
+        self.forgetting, self._lam, self._strategy = _resolve_forgetting(forgetting)
+        if P_max is not None:
+            P_max = check_scalar(P_max, "P_max", low=0.0, low_open=True)
+            if isinstance(self._strategy, (ConstantTrace, EFRA)):
+                raise param_error("P_max", f"None with {type(self._strategy).__name__} "
+                                  "forgetting (it bounds P by itself)", P_max)
+        self.P_max = P_max
+        strat = self._strategy
+        self._fast = strat is None and P_max is None
+        self._mode = strat._mode if strat is not None else 0
+        self._fp = strat._params() if strat is not None else np.zeros(1)
+        self._pmax = np.inf if P_max is None else P_max
+        self._lk = np.empty(1)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
-                         n_outputs=n_outputs)
+                         n_outputs=n_outputs, windup_threshold=windup_threshold)
 
     def _options(self):
-        return {"forgetting": self.forgetting, "nan_policy": self.nan_policy}
+        return {"forgetting": self._forgetting_option(), "P_max": self.P_max,
+                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
 
     def update(self, phi, y, *, weight=1.0, forgetting=None):
         r"""Process one sample; returns the a-priori error ε = y − φᵀθ.
@@ -563,8 +633,13 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
         phi = self._phi(phi)
         yv = self._y(y)
         w = self._weight(weight)
-        lam = self.forgetting if forgetting is None else self._check_lambda(forgetting)
-        st = self._kern.rls_update(self._S, phi, yv, lam, w, self._e)
+        lam = self._lam_step(forgetting)
+        if self._fast:
+            st = self._kern.rls_update(self._S, phi, yv, lam, w, self._e, self.windup_threshold)
+        else:
+            st = self._kern.rls_strategy_update(self._S, phi, yv, lam, w, self._e, self._mode,
+                                                self._fp, self._pmax, self.windup_threshold,
+                                                self._lk)
         if st & 1:
             self._nonfinite_step(phi, yv)
             return float("nan") if self._single else self._e.copy()
@@ -596,15 +671,30 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
         lam = self._lam_run(forgetting, Phi.shape[:1])
         Th, E, skipped = self._alloc(Phi.shape[:1], store)
-        bad = self._kern.rls_run(self._S, Phi, Y, lam, w, Th, E, skipped)
+        lk = None
+        if self._fast:
+            bad = self._kern.rls_run(self._S, Phi, Y, lam, w, Th, E, skipped,
+                                     self.windup_threshold)
+        else:
+            lk = np.empty(Phi.shape[0])
+            bad = self._kern.rls_strategy_run(self._S, Phi, Y, lam, w, Th, E, skipped, lk,
+                                              self._mode, self._fp, self._pmax,
+                                              self.windup_threshold)
         self._count(skipped)
         if bad >= 0:
             self._warn_nonpositive(bad)
-        return self._finish(Th, E, skipped, False, store)
+        return self._finish(Th, E, skipped, False, store, lk=lk)
 
     def _segments_kernel(self, S0, Sout, Phi, Y, off, w, Th, E, skipped, status):
         lam = self._lam_run(None, Phi.shape[:1])
-        self._kern.rls_run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, status)
+        if self._fast:
+            self._kern.rls_run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped,
+                                        self.windup_threshold, status)
+        else:
+            lk = np.empty(Phi.shape[0])
+            self._kern.rls_strategy_run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped,
+                                                 lk, self._mode, self._fp, self._pmax,
+                                                 self.windup_threshold, status)
 
     def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
         r"""Run B independent streams in one compiled, parallel call.
@@ -628,12 +718,20 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
         S = self._prepare_batch(shape_N[0])
         Th, E, skipped = self._alloc(shape_N, store)
         bad = np.empty(shape_N[0], dtype=np.int64)
-        self._kern.rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, bad)
+        lk = None
+        if self._fast:
+            self._kern.rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped,
+                                       self.windup_threshold, bad)
+        else:
+            lk = np.empty(shape_N)
+            self._kern.rls_strategy_run_batched(S, Phi, Y, lam, w, Th, E, skipped, lk,
+                                                self._mode, self._fp, self._pmax,
+                                                self.windup_threshold, bad)
         self._S, self._batch = S, shape_N[0]
         self._count(skipped)
         if (bad >= 0).any():
             self._warn_nonpositive(f"{int(bad[bad >= 0][0])} of stream {int(np.argmax(bad >= 0))}")
-        return self._finish(Th, E, skipped, True, store)
+        return self._finish(Th, E, skipped, True, store, lk=lk)
 
 
 class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
@@ -684,16 +782,17 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
     _kind = "SlidingWindowRLS"
 
     def __init__(self, n_params, window, *, forgetting=1.0, theta0=None, P0=1e4,
-                 nan_policy="raise", n_outputs=None):
+                 nan_policy="raise", n_outputs=None, windup_threshold=None):
         n = check_int(n_params, "n_params", low=1)
         self.window = check_int(window, "window", low=n)
-        self.forgetting = self._check_lambda(forgetting)
+        self.forgetting, self._lam, self._strategy = _resolve_forgetting(
+            forgetting, allow_strategies=False, owner="SlidingWindowRLS")
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
-                         n_outputs=n_outputs)
+                         n_outputs=n_outputs, windup_threshold=windup_threshold)
 
     def _options(self):
-        return {"window": self.window, "forgetting": self.forgetting,
-                "nan_policy": self.nan_policy}
+        return {"window": self.window, "forgetting": self._forgetting_option(),
+                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
 
     def _state_length(self):
         n, p, M = self.n_params, self.n_outputs, self.window
@@ -714,9 +813,9 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
         phi = self._phi(phi)
         yv = self._y(y)
         w = self._weight(weight)
-        lam = self.forgetting if forgetting is None else self._check_lambda(forgetting)
+        lam = self._lam_step(forgetting)
         st = self._kern.window_update(self._S, phi, yv, lam, w, self._e, self.window,
-                                      _config.DOWNDATE_RTOL)
+                                      _config.DOWNDATE_RTOL, self.windup_threshold)
         if st & 1:
             self._nonfinite_step(phi, yv)
             return float("nan") if self._single else self._e.copy()
@@ -744,6 +843,7 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
         self._count(skipped)
         if nreb:
             self._warn_rebuild(nreb)
+        self._check_final_windup()
         return self._finish(Th, E, skipped, False, store, nreb)
 
     def _segments_kernel(self, S0, Sout, Phi, Y, off, w, Th, E, skipped, status):
@@ -769,6 +869,7 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
         self._count(skipped)
         if reb.sum():
             self._warn_rebuild(int(reb.sum()))
+        self._check_final_windup()
         return self._finish(Th, E, skipped, True, store, int(reb.sum()))
 
 
@@ -806,7 +907,7 @@ class KalmanRLS(_RecursiveEstimator):
     _kind = "KalmanRLS"
 
     def __init__(self, n_params, *, process_cov, noise_var=1.0, theta0=None, P0=1e4,
-                 nan_policy="raise", n_outputs=None):
+                 nan_policy="raise", n_outputs=None, windup_threshold=None):
         n = check_int(n_params, "n_params", low=1)
         if np.ndim(process_cov) == 0:
             q = check_scalar(process_cov, "process_cov", low=0.0)
@@ -823,11 +924,11 @@ class KalmanRLS(_RecursiveEstimator):
         self.process_cov = Q
         self.noise_var = check_scalar(noise_var, "noise_var", low=0.0, low_open=True)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
-                         n_outputs=n_outputs)
+                         n_outputs=n_outputs, windup_threshold=windup_threshold)
 
     def _options(self):
         return {"process_cov": self.process_cov.copy(), "noise_var": self.noise_var,
-                "nan_policy": self.nan_policy}
+                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
 
     def update(self, phi, y, *, weight=1.0):
         """Process one sample (measurement then time update); returns ε."""
@@ -838,7 +939,7 @@ class KalmanRLS(_RecursiveEstimator):
         w = self._weight(weight)
         skip = self.nan_policy == "skip"
         st = self._kern.kalman_update(self._S, phi, yv, self.noise_var, w,
-                                      self.process_cov, self._e, skip)
+                                      self.process_cov, self._e, skip, self.windup_threshold)
         if st & 1:
             self._nonfinite_step(phi, yv)
             if st & 4:
@@ -855,7 +956,7 @@ class KalmanRLS(_RecursiveEstimator):
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
         Th, E, skipped = self._alloc(Phi.shape[:1], store)
         bad = self._kern.kalman_run(self._S, Phi, Y, self.noise_var, w, self.process_cov,
-                                    Th, E, skipped)
+                                    Th, E, skipped, self.windup_threshold)
         self._count(skipped)
         if bad >= 0:
             self._warn_nonpositive(bad)
@@ -863,7 +964,8 @@ class KalmanRLS(_RecursiveEstimator):
 
     def _segments_kernel(self, S0, Sout, Phi, Y, off, w, Th, E, skipped, status):
         self._kern.kalman_run_segments(S0, Sout, Phi, Y, off, self.noise_var, w,
-                                       self.process_cov, Th, E, skipped, status)
+                                       self.process_cov, Th, E, skipped,
+                                       self.windup_threshold, status)
 
     def run_batched(self, Phi, y, *, weights=None, store=True):
         """B independent streams in one compiled, parallel call. See :meth:`RLS.run_batched`."""
@@ -873,7 +975,7 @@ class KalmanRLS(_RecursiveEstimator):
         Th, E, skipped = self._alloc(shape_N, store)
         bad = np.empty(shape_N[0], dtype=np.int64)
         self._kern.kalman_run_batched(S, Phi, Y, self.noise_var, w, self.process_cov,
-                                      Th, E, skipped, bad)
+                                      Th, E, skipped, self.windup_threshold, bad)
         self._S, self._batch = S, shape_N[0]
         self._count(skipped)
         if (bad >= 0).any():

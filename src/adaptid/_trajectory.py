@@ -27,12 +27,17 @@ class Trajectory:
     n_rebuilds : int
         Sliding window only: removals that would have lost positive
         definiteness and were replaced by an exact re-solve of the window.
+    forgetting : ndarray, shape (N,) or (B, N), or None
+        RLS with a forgetting strategy (:mod:`adaptid.forgetting`) or
+        ``P_max``: the factor λₖ actually applied at each sample (NaN where
+        skipped). None for constant or given per-sample λ.
     """
 
     theta: np.ndarray
     error: np.ndarray
     skipped: np.ndarray
     n_rebuilds: int = 0
+    forgetting: np.ndarray | None = None
     meta: dict = field(default_factory=dict, repr=False)
 
     def __len__(self) -> int:

@@ -108,8 +108,11 @@ def as_float_array(x, name: str, *, ndim=None, shape=None, finite=True,
 
 
 def check_scalar(x, name: str, *, low=None, high=None, low_open=False,
-                 high_open=False) -> float:
-    """Check a real scalar against an interval and return it as ``float``."""
+                 high_open=False, finite=True) -> float:
+    """Check a real scalar against an interval and return it as ``float``.
+
+    ``finite=False`` also accepts ±inf (within the interval); NaN never.
+    """
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (numbers.Real, np.floating, np.integer)):
         if isinstance(x, np.ndarray) and x.ndim == 0 and x.dtype.kind in "iuf":
             x = x.item()
@@ -119,8 +122,8 @@ def check_scalar(x, name: str, *, low=None, high=None, low_open=False,
     lo_b = "(" if low_open else "["
     hi_b = ")" if high_open else "]"
     interval = f"in {lo_b}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_b}"
-    if not np.isfinite(val):
-        raise param_error(name, f"finite and {interval}", x)
+    if np.isnan(val) or (finite and not np.isfinite(val)):
+        raise param_error(name, f"{'finite and ' if finite else ''}{interval}", x)
     if low is not None and (val < low or (low_open and val == low)):
         raise param_error(name, interval, x)
     if high is not None and (val > high or (high_open and val == high)):

@@ -119,9 +119,9 @@ def _forget(D, lam, NP):
 
 
 @njit(**NJIT_INLINE)
-def _d_ok(D, NP):
+def _d_below(D, dthr, NP):
     for i in range(NP):
-        if not (D[i] > 0.0 and D[i] < np.inf):
+        if not (D[i] > 0.0 and D[i] < dthr):
             return False
     return True
 
@@ -147,7 +147,7 @@ def _views(S, NP, p):
 # RLS: exponential forgetting, weights, prior (ridge)
 # --------------------------------------------------------------------------
 @njit(**NJIT_INLINE)
-def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, NP, p):
+def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
     # Written flat, with every branch at the top of the loop body: a branch
     # around the unrolled update (e.g. `if w > 0`) made LLVM spill the state
     # and the loop ran 4 x slower (measured at n = 4).
@@ -200,7 +200,7 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, NP, p):
                 E[k, j] = np.nan
         if bad < 0:
             for i in range(NP):
-                if not (D[i] > 0.0 and D[i] < np.inf):
+                if not (D[i] > 0.0 and D[i] < dthr):
                     bad = k
         if store:
             for i in range(NP):
@@ -210,7 +210,7 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, NP, p):
 
 
 @njit(**NJIT)
-def rls_update(S, phi, y, lam, w, e):
+def rls_update(S, phi, y, lam, w, e, dthr):
     """One RLS step through the same compiled code as :func:`rls_run`.
 
     Returns status bits; the state is untouched when SKIPPED.
@@ -225,9 +225,9 @@ def rls_update(S, phi, y, lam, w, e):
     Th = np.empty((0, NP, p))
     skipped = np.zeros(1, dtype=np.bool_)
     if p == 1:
-        bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, NP, 1)
+        bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, dthr, NP, 1)
     else:
-        bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, NP, p)
+        bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, dthr, NP, p)
     if skipped[0]:
         return SKIPPED
     if bad >= 0:
@@ -236,25 +236,26 @@ def rls_update(S, phi, y, lam, w, e):
 
 
 @njit(**NJIT)
-def rls_run(S, Phi, Y, lam, w, Th, E, skipped):
-    """N RLS steps; returns the first sample index where D lost positivity, or -1."""
+def rls_run(S, Phi, Y, lam, w, Th, E, skipped, dthr):
+    """N RLS steps; returns the first sample index where a pivot D_i lost
+    positivity or passed ``dthr`` (windup), or -1."""
     NP = Phi.shape[1]  # @np
     if Y.shape[1] == 1:
-        return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, NP, 1)
-    return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, NP, Y.shape[1])
+        return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, 1)
+    return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, Y.shape[1])
 
 
 @njit(**NJIT_PARALLEL)
-def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, bad):
+def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, dthr, bad):
     """B independent RLS streams in parallel; ``bad[b]`` as in :func:`rls_run`."""
     NP = Phi.shape[2]  # @np
     for s in prange(Phi.shape[0]):
         bad[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                             skipped[s], NP, Y.shape[2])
+                             skipped[s], dthr, NP, Y.shape[2])
 
 
 @njit(**NJIT_PARALLEL)
-def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, bad):
+def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, dthr, bad):
     """G streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0.
 
     Parallel over segments; segment g is bit for bit :func:`rls_run` from S0.
@@ -266,7 +267,206 @@ def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, bad):
         S = Sout[g]
         S[:] = S0
         bad[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                             skipped[a:z], NP, Y.shape[1])
+                             skipped[a:z], dthr, NP, Y.shape[1])
+
+
+# --------------------------------------------------------------------------
+# RLS with a forgetting strategy (adaptid.forgetting)
+# --------------------------------------------------------------------------
+# mode: 0 exponential (λₖ given, with P_max), 1 directional, 2 constant trace,
+# 3 EFRA, 4 variable (Fortescue). fp: the strategy's parameters (see
+# adaptid.forgetting); pmax: bound on diag(P) (inf: none).
+@njit(**NJIT_INLINE)
+def _max_diag_P(U, D, NP):
+    m = 0.0
+    for i in range(NP):
+        s = D[i]
+        for j in range(i + 1, NP):
+            s += U[i, j] * U[i, j] * D[j]
+        if s > m:
+            m = s
+    return m
+
+
+@njit(**NJIT_INLINE)
+def _trace_P(U, D, NP):
+    t = 0.0
+    for j in range(NP):
+        s = 1.0
+        for i in range(j):
+            s += U[i, j] * U[i, j]
+        t += D[j] * s
+    return t
+
+
+@njit(**NJIT_INLINE)
+def _form_P(U, D, P, NP):
+    for i in range(NP):
+        for j in range(i, NP):
+            s = D[j] * U[i, j] if i < j else D[j]
+            for k in range(j + 1, NP):
+                s += U[i, k] * D[k] * U[j, k]
+            P[i, j] = s
+            P[j, i] = s
+
+
+@njit(**NJIT_INLINE)
+def _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, dthr, NP, p):
+    theta, U, D = _views(S, NP, p)
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    e = np.empty(p)
+    Pm = np.empty((NP, NP))
+    W = np.empty((NP, NP))
+    store = Th.shape[0] == Phi.shape[0]
+    bad = -1
+    for k in range(Phi.shape[0]):
+        phi = Phi[k]
+        if not _finite_row(phi, Y[k], NP, p):
+            skipped[k] = True
+            Lk[k] = np.nan
+            for j in range(p):
+                E[k, j] = np.nan
+            if store:
+                _store(Th, k, theta, NP, p)
+            continue
+        _prior_errors(theta, phi, Y[k], e, NP, p)
+        e2 = 0.0
+        for j in range(p):
+            E[k, j] = e[j]
+            e2 += e[j] * e[j]
+        e2 /= p
+        wk = w[k]
+        lk = 1.0
+        if mode == 0 or mode == 4:
+            if mode == 0:
+                lk = lam[k]
+            else:
+                # Fortescue, Kershenbaum & Ydstie (1981): keep the weighted
+                # a-posteriori error sum constant: λ = 1 − w ε²/((1 + w r) Σ0)
+                r = _bierman_prep(U, D, phi, f, v, NP)
+                lk = 1.0 - wk * e2 / ((1.0 + wk * r) * fp[1])
+                if not (lk >= fp[0]):
+                    lk = fp[0]
+            if lk < 1.0 and pmax < np.inf:
+                m = _max_diag_P(U, D, NP)
+                if m > lk * pmax:
+                    lk = min(1.0, m / pmax)
+            _forget(D, lk, NP)
+            if wk > 0.0:
+                _add(theta, U, D, phi, Y[k], 1.0 / wk, e, f, v, b, NP, p)
+        elif mode == 1:
+            # Kulhavý (1987): forget only along φ. The information R = P⁻¹
+            # loses (1 − λ) φφᵀ/(φᵀPφ) (a Bierman step of weight −r/(1−λ),
+            # definite since 1 − c r = λ > 0), so φᵀPφ grows by 1/λ while
+            # directions orthogonal to φ (in the R metric) keep their information.
+            if wk > 0.0:
+                lk = fp[0]
+                r = _bierman_prep(U, D, phi, f, v, NP)
+                if lk < 1.0 and pmax < np.inf:
+                    if _max_diag_P(U, D, NP) > lk * pmax:
+                        lk = 1.0
+                if lk < 1.0 and r > 0.0:
+                    _bierman_apply(U, D, -r / (1.0 - lk), f, v, b, NP)
+                _add(theta, U, D, phi, Y[k], 1.0 / wk, e, f, v, b, NP, p)
+        elif mode == 2:
+            # constant trace (Goodwin & Sin 1984, §3.7): after the update P is
+            # scaled back to trace c, the implied λ clipped to [λ_min, 1]
+            if wk > 0.0:
+                _add(theta, U, D, phi, Y[k], 1.0 / wk, e, f, v, b, NP, p)
+            lk = _trace_P(U, D, NP) / fp[1]
+            if lk > 1.0:
+                lk = 1.0
+            elif not (lk >= fp[0]):
+                lk = fp[0]
+            _forget(D, lk, NP)
+        else:
+            # EFRA (Salgado, Goodwin & Middleton 1988):
+            # θ ← θ + α Pφ ε/(1/w + r),
+            # P ← (P − α PφφᵀP/(1/w + r))/λ + βI − δP²  (P the old P)
+            alpha = fp[0]
+            lk = fp[3]
+            _form_P(U, D, Pm, NP)
+            if wk > 0.0:
+                r = _bierman_prep(U, D, phi, f, v, NP)
+                a = _bierman_apply(U, D, (1.0 / wk + r) / alpha - r, f, v, b, NP)
+                _gain_step(theta, b, a, e, NP, p)
+            _forget(D, lk, NP)
+            for i in range(NP):
+                for j in range(i, NP):
+                    s = D[j] * U[i, j] if i < j else D[j]
+                    for q in range(j + 1, NP):
+                        s += U[i, q] * D[q] * U[j, q]
+                    sq = 0.0
+                    for q in range(NP):
+                        sq += Pm[i, q] * Pm[q, j]
+                    s -= fp[2] * sq
+                    if i == j:
+                        s += fp[1]
+                    W[i, j] = s
+            if not _udu_factor(W, U, D, NP):
+                for i in range(NP):
+                    D[i] = np.nan
+        Lk[k] = lk
+        if bad < 0:
+            for i in range(NP):
+                if not (D[i] > 0.0 and D[i] < dthr):
+                    bad = k
+        if store:
+            _store(Th, k, theta, NP, p)
+    return bad
+
+
+@njit(**NJIT)
+def rls_strategy_update(S, phi, y, lam, w, e, mode, fp, pmax, dthr, lk):
+    """One step of :func:`rls_strategy_run` (the same compiled code); λₖ → lk[0]."""
+    NP = phi.shape[0]  # @np
+    p = y.shape[0]
+    Phi = phi.reshape((1, NP))
+    Y = y.reshape((1, p))
+    E = e.reshape((1, p))
+    lam1 = np.full(1, lam)
+    w1 = np.full(1, w)
+    Th = np.empty((0, NP, p))
+    skipped = np.zeros(1, dtype=np.bool_)
+    bad = _rls_strategy_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, mode, fp, pmax,
+                               dthr, NP, p)
+    if skipped[0]:
+        return SKIPPED
+    if bad >= 0:
+        return NONPOSITIVE
+    return 0
+
+
+@njit(**NJIT)
+def rls_strategy_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, dthr):
+    """N RLS steps with a forgetting strategy; returns as :func:`rls_run`."""
+    NP = Phi.shape[1]  # @np
+    return _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax,
+                                dthr, NP, Y.shape[1])
+
+
+@njit(**NJIT_PARALLEL)
+def rls_strategy_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, dthr, bad):
+    NP = Phi.shape[2]  # @np
+    for s in prange(Phi.shape[0]):
+        bad[s] = _rls_strategy_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
+                                      skipped[s], Lk[s], mode, fp, pmax, dthr, NP, Y.shape[2])
+
+
+@njit(**NJIT_PARALLEL)
+def rls_strategy_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk,
+                              mode, fp, pmax, dthr, bad):
+    NP = Phi.shape[1]  # @np
+    for g in prange(offsets.shape[0] - 1):
+        a = offsets[g]
+        z = offsets[g + 1]
+        S = Sout[g]
+        S[:] = S0
+        bad[g] = _rls_strategy_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                                      skipped[a:z], Lk[a:z], mode, fp, pmax, dthr, NP,
+                                      Y.shape[1])
 
 
 # --------------------------------------------------------------------------
@@ -317,7 +517,7 @@ def _kalman_step(theta, U, D, phi, y, r2, w, Q, e, f, v, b, W, NP, p):
 
 
 @njit(**NJIT)
-def kalman_update(S, phi, y, r2, w, Q, e, skip):
+def kalman_update(S, phi, y, r2, w, Q, e, skip, dthr):
     """One Kalman step. ``skip``: a NaN sample gets the time update only."""
     NP = phi.shape[0]  # @np
     p = y.shape[0]
@@ -327,19 +527,20 @@ def kalman_update(S, phi, y, r2, w, Q, e, skip):
         for j in range(p):
             e[j] = np.nan
         if skip:
-            if not _time_update(U, D, Q, W, NP):
+            if not _time_update(U, D, Q, W, NP) or not _d_below(D, dthr, NP):
                 return SKIPPED | NONPOSITIVE
         return SKIPPED
     f = np.empty(NP)
     v = np.empty(NP)
     b = np.empty(NP)
-    if not _kalman_step(theta, U, D, phi, y, r2, w, Q, e, f, v, b, W, NP, p):
+    if not _kalman_step(theta, U, D, phi, y, r2, w, Q, e, f, v, b, W, NP, p) \
+            or not _d_below(D, dthr, NP):
         return NONPOSITIVE
     return 0
 
 
 @njit(**NJIT_INLINE)
-def _kalman_stream(S, Phi, Y, r2, w, Q, Th, E, skipped, NP):
+def _kalman_stream(S, Phi, Y, r2, w, Q, Th, E, skipped, dthr, NP):
     p = Y.shape[1]
     theta, U, D = _views(S, NP, p)
     f = np.empty(NP)
@@ -358,7 +559,7 @@ def _kalman_stream(S, Phi, Y, r2, w, Q, Th, E, skipped, NP):
             for j in range(p):
                 E[k, j] = np.nan
             ok = _time_update(U, D, Q, W, NP)
-        if bad < 0 and not ok:
+        if bad < 0 and not (ok and _d_below(D, dthr, NP)):
             bad = k
         if store:
             _store(Th, k, theta, NP, p)
@@ -366,21 +567,21 @@ def _kalman_stream(S, Phi, Y, r2, w, Q, Th, E, skipped, NP):
 
 
 @njit(**NJIT)
-def kalman_run(S, Phi, Y, r2, w, Q, Th, E, skipped):
+def kalman_run(S, Phi, Y, r2, w, Q, Th, E, skipped, dthr):
     NP = Phi.shape[1]  # @np
-    return _kalman_stream(S, Phi, Y, r2, w, Q, Th, E, skipped, NP)
+    return _kalman_stream(S, Phi, Y, r2, w, Q, Th, E, skipped, dthr, NP)
 
 
 @njit(**NJIT_PARALLEL)
-def kalman_run_batched(S, Phi, Y, r2, w, Q, Th, E, skipped, bad):
+def kalman_run_batched(S, Phi, Y, r2, w, Q, Th, E, skipped, dthr, bad):
     NP = Phi.shape[2]  # @np
     for s in prange(Phi.shape[0]):
         bad[s] = _kalman_stream(S[s], Phi[s], Y[s], r2, w[s], Q, Th[s], E[s],
-                                skipped[s], NP)
+                                skipped[s], dthr, NP)
 
 
 @njit(**NJIT_PARALLEL)
-def kalman_run_segments(S0, Sout, Phi, Y, offsets, r2, w, Q, Th, E, skipped, bad):
+def kalman_run_segments(S0, Sout, Phi, Y, offsets, r2, w, Q, Th, E, skipped, dthr, bad):
     """G Kalman streams back to back, each from S0 (see :func:`rls_run_segments`)."""
     NP = Phi.shape[1]  # @np
     for g in prange(offsets.shape[0] - 1):
@@ -389,7 +590,7 @@ def kalman_run_segments(S0, Sout, Phi, Y, offsets, r2, w, Q, Th, E, skipped, bad
         S = Sout[g]
         S[:] = S0
         bad[g] = _kalman_stream(S, Phi[a:z], Y[a:z], r2, w[a:z], Q, Th[a:z], E[a:z],
-                                skipped[a:z], NP)
+                                skipped[a:z], dthr, NP)
 
 
 # --------------------------------------------------------------------------
@@ -493,7 +694,7 @@ def _window_step(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
 
 
 @njit(**NJIT)
-def window_update(S, phi, y, lam, w, e, M, rtol):
+def window_update(S, phi, y, lam, w, e, M, rtol, dthr):
     NP = phi.shape[0]  # @np
     p = y.shape[0]
     if not _finite_row(phi, y, NP, p):
@@ -509,7 +710,7 @@ def window_update(S, phi, y, lam, w, e, M, rtol):
     if _window_step(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
                     phi, y, lam, w, e, e2, f, v, b, NP, p, M, rtol):
         status |= REBUILT
-    if not _d_ok(D, NP):
+    if not _d_below(D, dthr, NP):
         status |= NONPOSITIVE
     return status
 
