@@ -50,7 +50,8 @@ def _ud_from_P(P: np.ndarray):
 
 
 def _P_from_ud(U, D):
-    return U @ (D[..., :, None] * np.swapaxes(U, -1, -2))
+    P = U @ (D[..., :, None] * np.swapaxes(U, -1, -2))
+    return 0.5 * (P + np.swapaxes(P, -1, -2))  # exactly symmetric (BLAS sums in any order)
 
 
 class _RecursiveEstimator:
@@ -539,10 +540,12 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
         ``EFRA``, ``Variable``) that keeps P bounded when excitation is lost;
         the factor it applied at each sample is ``Trajectory.forgetting``.
     P_max : float, optional
-        Bound on the diagonal of P for exponential, directional and
-        variable forgetting: λₖ is raised towards 1 whenever forgetting
-        would take a diagonal element of P past ``P_max`` (conditional
-        forgetting; P never exceeds max(P_max, diag P₀) then).
+        Bound on P for exponential and variable forgetting: each pivot
+        :math:`D_i` of :math:`P = UDU^T` (a conditional variance) is
+        forgotten only up to ``P_max``, so an unexcited direction stops
+        growing while the excited ones keep forgetting. With directional
+        forgetting, a step that would take a diagonal element of P past
+        ``P_max`` forgets nothing. See :mod:`adaptid.forgetting`.
     windup_threshold : float, optional
         A :class:`~adaptid.CovarianceWindupWarning` is emitted (once, until
         :meth:`reset`) when a pivot :math:`D_i` of :math:`P = UDU^T` passes
@@ -602,7 +605,8 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
         strat = self._strategy
         self._fast = strat is None and P_max is None
         self._mode = strat._mode if strat is not None else 0
-        self._fp = strat._params() if strat is not None else np.zeros(1)
+        self._fp = strat._params_n(check_int(n_params, "n_params", low=1)) \
+            if strat is not None else np.zeros(1)
         self._pmax = np.inf if P_max is None else P_max
         self._lk = np.empty(1)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,

@@ -18,9 +18,12 @@ recursion (one compiled call per ``run``):
 ``Variable``           λₖ from the prediction error (Fortescue et al. 1981)
 =====================  =========================================================
 
-and ``RLS(..., P_max=...)`` bounds the diagonal of P for the exponential,
-directional and variable strategies (conditional forgetting: λₖ is raised
-towards 1 as needed so that no diagonal element of P passes ``P_max``).
+and ``RLS(..., P_max=...)`` bounds P for the exponential and variable
+strategies (pivot-wise conditional forgetting: each pivot :math:`D_i` of
+:math:`P = UDU^T` is forgotten at λₖ until it reaches ``P_max``, so
+saturated directions stop growing while the others keep forgetting) and
+for the directional one (no forgetting in a step that would take a diagonal
+element of P past ``P_max``).
 
 :class:`adaptid.SlidingWindowRLS` accepts a float or :class:`Exponential`
 only: removing a sample from the window needs the exact product of the
@@ -60,6 +63,10 @@ class ForgettingStrategy:
 
     def _params(self) -> np.ndarray:  # pragma: no cover - overridden
         raise NotImplementedError
+
+    def _params_n(self, n) -> np.ndarray:
+        """Kernel parameters for n parameters."""
+        return self._params()
 
     def to_dict(self) -> dict:
         """Plain JSON-able description, inverted by :func:`from_dict`."""
@@ -139,20 +146,24 @@ class Directional(ForgettingStrategy):
 
 @dataclass(frozen=True)
 class ConstantTrace(ForgettingStrategy):
-    r"""Constant-trace forgetting: P is rescaled to a fixed trace after each update.
+    r"""Regularised constant-trace forgetting: P is rescaled to a fixed trace after each update.
 
     After the measurement update :math:`\bar P_k`,
 
     .. math::
 
-        P_k = \bar P_k/\lambda_k,\qquad
-        \lambda_k = \min\!\big(1, \max(\lambda_{\min},
-                    \operatorname{tr}\bar P_k / c)\big),
+        P_k = g_k\,\bar P_k + c_2 I,\qquad
+        g_k = \min\Big(\frac{c_1}{\operatorname{tr}\bar P_k},\ \frac{1}{\lambda_{\min}}\Big),
+        \qquad c_1 = (1-f)\,c,\quad c_2 = f\,c/n,
 
-    so trace(P) is held at c (Goodwin & Sin 1984, §3.7.2, the
-    "constant trace" algorithm), forgetting never faster than
-    :math:`\lambda_{\min}` and never amplifying P (λₖ ≤ 1: from a larger
-    prior, trace(P) first decreases to c). trace(P) ≤ max(c, tr P₀) always.
+    so :math:`\operatorname{tr}P_k \le c` (equal to c unless the
+    amplification is capped at :math:`1/\lambda_{\min}`) and
+    :math:`P_k \succeq c_2 I`. This is the constant-trace algorithm with the
+    regularising floor of Lozano-Leal & Goodwin (Goodwin & Sin 1984, §3.7.2):
+    without the floor (``floor=0``) a long unexcited stretch lets one
+    direction absorb the whole trace and starves the others of forgetting,
+    so they cannot track a change afterwards. The reported λₖ is
+    :math:`1/g_k`. P is re-factorised after the rescaling (O(n³) per sample).
 
     Parameters
     ----------
@@ -160,23 +171,32 @@ class ConstantTrace(ForgettingStrategy):
         :math:`\lambda_{\min}` ∈ (0, 1], the fastest forgetting allowed.
     trace : float
         c > 0, the trace P is held at.
+    floor : float
+        f ∈ [0, 1), the fraction of the trace kept as the floor c₂ I.
 
     References
     ----------
     .. [1] G. C. Goodwin, K. S. Sin, *Adaptive Filtering, Prediction and
        Control*, Prentice-Hall, 1984, §3.7.
+    .. [2] R. Lozano-Leal, G. C. Goodwin, "A globally convergent adaptive
+       pole placement algorithm without a persistency of excitation
+       requirement", *IEEE Trans. Autom. Control* 30(8), 795–798, 1985.
     """
 
     lam: float = 0.9
     trace: float = 1.0
+    floor: float = 0.01
     _mode = _CT
 
     def __post_init__(self):
         object.__setattr__(self, "lam", _lam(self.lam))
         object.__setattr__(self, "trace", check_scalar(self.trace, "trace", low=0.0, low_open=True))
+        object.__setattr__(self, "floor", check_scalar(self.floor, "floor", low=0.0, high=1.0,
+                                                       high_open=True))
 
-    def _params(self):
-        return np.array([self.lam, self.trace])
+    def _params_n(self, n):
+        return np.array([self.lam, self.trace, (1 - self.floor) * self.trace,
+                         self.floor * self.trace / n])
 
 
 @dataclass(frozen=True)

@@ -349,11 +349,17 @@ def _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, 
                 lk = 1.0 - wk * e2 / ((1.0 + wk * r) * fp[1])
                 if not (lk >= fp[0]):
                     lk = fp[0]
-            if lk < 1.0 and pmax < np.inf:
-                m = _max_diag_P(U, D, NP)
-                if m > lk * pmax:
-                    lk = min(1.0, m / pmax)
-            _forget(D, lk, NP)
+            if pmax < np.inf:
+                # pivot-wise conditional forgetting: D_i/λ_i ≤ P_max, so the
+                # saturated (unexcited) pivots stop growing while the others
+                # keep forgetting at λ
+                for i in range(NP):
+                    li = lk
+                    if D[i] > li * pmax:
+                        li = min(1.0, max(lk, D[i] / pmax))
+                    D[i] /= li
+            else:
+                _forget(D, lk, NP)
             if wk > 0.0:
                 _add(theta, U, D, phi, Y[k], 1.0 / wk, e, f, v, b, NP, p)
         elif mode == 1:
@@ -371,16 +377,23 @@ def _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, 
                     _bierman_apply(U, D, -r / (1.0 - lk), f, v, b, NP)
                 _add(theta, U, D, phi, Y[k], 1.0 / wk, e, f, v, b, NP, p)
         elif mode == 2:
-            # constant trace (Goodwin & Sin 1984, §3.7): after the update P is
-            # scaled back to trace c, the implied λ clipped to [λ_min, 1]
+            # regularised constant trace (Goodwin & Sin 1984, §3.7):
+            # P = g P̄ + c₂ I, g = min(c₁/tr P̄, 1/λ_min), so tr P ≤ c₁ + n c₂
             if wk > 0.0:
                 _add(theta, U, D, phi, Y[k], 1.0 / wk, e, f, v, b, NP, p)
-            lk = _trace_P(U, D, NP) / fp[1]
-            if lk > 1.0:
-                lk = 1.0
-            elif not (lk >= fp[0]):
-                lk = fp[0]
-            _forget(D, lk, NP)
+            g = fp[2] / _trace_P(U, D, NP)
+            if not (g <= 1.0 / fp[0]):
+                g = 1.0 / fp[0]
+            lk = 1.0 / g
+            for i in range(NP):
+                for j in range(i, NP):
+                    sij = D[j] * U[i, j] if i < j else D[j]
+                    for q in range(j + 1, NP):
+                        sij += U[i, q] * D[q] * U[j, q]
+                    W[i, j] = g * sij + (fp[3] if i == j else 0.0)
+            if not _udu_factor(W, U, D, NP):
+                for i in range(NP):
+                    D[i] = np.nan
         else:
             # EFRA (Salgado, Goodwin & Middleton 1988):
             # θ ← θ + α Pφ ε/(1/w + r),
