@@ -662,111 +662,47 @@ def _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
             _add(theta, U, D, Bphi[s], By[s], 1.0 / c, e, f, v, b, NP, p)
 
 
-@njit(**NJIT_INLINE)
-def _window_step(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
-                 phi, y, lam, w, e, e2, f, v, b, NP, p, M, rtol):
-    """One TLSM step: forget, add the new sample, remove the one leaving the window.
-
-    Returns True when the removal had to be replaced by a re-solve.
-    """
-    _prior_errors(theta, phi, y, e, NP, p)
-    _forget(D, lam, NP)
-    L = meta[0] + np.log(lam)
-    meta[0] = L
-    if w > 0.0:
-        _add(theta, U, D, phi, y, 1.0 / w, e, f, v, b, NP, p)
-    pos = int(meta[1])
-    count = int(meta[2])
-    rebuilt = False
-    if count == M:
-        c = Bw[pos] * np.exp(L - BL[pos])
-        if c > 0.0:
-            q = _bierman_prep(U, D, Bphi[pos], f, v, NP)
-            if 1.0 - c * q < rtol:
-                rebuilt = True
-            else:
-                _prior_errors(theta, Bphi[pos], By[pos], e2, NP, p)
-                a = _bierman_apply(U, D, -1.0 / c, f, v, b, NP)
-                _gain_step(theta, b, a, e2, NP, p)
-    for i in range(NP):
-        Bphi[pos, i] = phi[i]
-    for j in range(p):
-        By[pos, j] = y[j]
-    Bw[pos] = w
-    BL[pos] = L
-    pos += 1
-    if pos == M:
-        pos = 0
-    meta[1] = pos
-    if count < M:
-        meta[2] = count + 1
-    if rebuilt:
-        _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
-                        e2, f, v, b, NP, p, M)
-    return rebuilt
-
-
 @njit(**NJIT)
 def window_update(S, phi, y, lam, w, e, M, rtol, dthr):
+    """One TLSM step through the same compiled code as :func:`window_run`."""
     NP = phi.shape[0]  # @np
     p = y.shape[0]
-    if not _finite_row(phi, y, NP, p):
-        for j in range(p):
-            e[j] = np.nan
+    Phi = phi.reshape((1, NP))
+    Y = y.reshape((1, p))
+    E = e.reshape((1, p))
+    lam1 = np.full(1, lam)
+    w1 = np.full(1, w)
+    Th = np.empty((0, NP, p))
+    skipped = np.zeros(1, dtype=np.bool_)
+    if p == 1:
+        reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, M, rtol, NP, 1)
+    else:
+        reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, M, rtol, NP, p)
+    if skipped[0]:
         return SKIPPED
-    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
-    f = np.empty(NP)
-    v = np.empty(NP)
-    b = np.empty(NP)
-    e2 = np.empty(p)
     status = 0
-    if _window_step(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
-                    phi, y, lam, w, e, e2, f, v, b, NP, p, M, rtol):
+    if reb:
         status |= REBUILT
-    if not _d_below(D, dthr, NP):
+    if not _d_below(S[NP * p + NP * NP:NP * p + NP * NP + NP], dthr, NP):
         status |= NONPOSITIVE
     return status
-
-
-@njit(**NJIT_INLINE)
-def _window_stream(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP):
-    p = Y.shape[1]
-    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
-    f = np.empty(NP)
-    v = np.empty(NP)
-    b = np.empty(NP)
-    e2 = np.empty(p)
-    store = Th.shape[0] == Phi.shape[0]
-    rebuilds = 0
-    for k in range(Phi.shape[0]):
-        phi = Phi[k]
-        y = Y[k]
-        if _finite_row(phi, y, NP, p):
-            if _window_step(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
-                            phi, y, lam[k], w[k], E[k], e2, f, v, b, NP, p, M, rtol):
-                rebuilds += 1
-        else:
-            skipped[k] = True
-            for j in range(p):
-                E[k, j] = np.nan
-        if store:
-            _store(Th, k, theta, NP, p)
-    return rebuilds
 
 
 @njit(**NJIT)
 def window_run(S, Phi, Y, lam, w, Th, E, skipped, M, rtol):
     """N TLSM steps; returns the number of removals replaced by a re-solve."""
     NP = Phi.shape[1]  # @np
-    return _window_stream(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP)
+    if Y.shape[1] == 1:
+        return _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, 1)
+    return _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, Y.shape[1])
 
 
 @njit(**NJIT_PARALLEL)
 def window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, rebuilds):
     NP = Phi.shape[2]  # @np
     for s in prange(Phi.shape[0]):
-        rebuilds[s] = _window_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                     skipped[s], M, rtol, NP)
+        rebuilds[s] = _window_stream_flat(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
+                                          skipped[s], M, rtol, NP, Y.shape[2])
 
 
 @njit(**NJIT_PARALLEL)
@@ -778,8 +714,113 @@ def window_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, M, rt
         z = offsets[g + 1]
         S = Sout[g]
         S[:] = S0
-        rebuilds[g] = _window_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                                     skipped[a:z], M, rtol, NP)
+        rebuilds[g] = _window_stream_flat(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z],
+                                          E[a:z], skipped[a:z], M, rtol, NP, Y.shape[1])
+
+
+# The window's stream is written flat (no per-step array views, branches at
+# the top of the loop body): 1.5-2x faster than composing the helpers above.
+@njit(**NJIT_INLINE)
+def _prep_row(U, D, A, r, f, v, NP):
+    q = 0.0
+    for j in range(NP):
+        s = A[r, j]
+        for i in range(j):
+            s += U[i, j] * A[r, i]
+        f[j] = s
+        v[j] = D[j] * s
+        q += s * v[j]
+    return q
+
+
+@njit(**NJIT_INLINE)
+def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, p):
+    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    e = np.empty(p)
+    e2 = np.empty(p)
+    store = Th.shape[0] == Phi.shape[0]
+    rebuilds = 0
+    for k in range(Phi.shape[0]):
+        ok = True
+        for i in range(NP):
+            if not np.isfinite(Phi[k, i]):
+                ok = False
+        for j in range(p):
+            if not np.isfinite(Y[k, j]):
+                ok = False
+        if ok:
+            lk = lam[k]
+            wk = w[k]
+            for j in range(p):
+                s = Y[k, j]
+                for i in range(NP):
+                    s -= Phi[k, i] * theta[i, j]
+                e[j] = s
+                E[k, j] = s
+            if lk != 1.0:
+                il = 1.0 / lk
+                for i in range(NP):
+                    D[i] *= il
+            L = meta[0] + np.log(lk)
+            meta[0] = L
+            if wk > 0.0:
+                _prep_row(U, D, Phi, k, f, v, NP)
+                a = _bierman_apply(U, D, 1.0 / wk, f, v, b, NP)
+                _gain_step(theta, b, a, e, NP, p)
+            pos = int(meta[1])
+            count = int(meta[2])
+            rebuilt = False
+            if count == M:
+                c = Bw[pos] * np.exp(L - BL[pos])
+                if c > 0.0:
+                    q = _prep_row(U, D, Bphi, pos, f, v, NP)
+                    if 1.0 - c * q < rtol:
+                        rebuilt = True
+                    else:
+                        for j in range(p):
+                            s = By[pos, j]
+                            for i in range(NP):
+                                s -= Bphi[pos, i] * theta[i, j]
+                            e2[j] = s
+                        a = _bierman_apply(U, D, -1.0 / c, f, v, b, NP)
+                        _gain_step(theta, b, a, e2, NP, p)
+            for i in range(NP):
+                Bphi[pos, i] = Phi[k, i]
+            for j in range(p):
+                By[pos, j] = Y[k, j]
+            Bw[pos] = wk
+            BL[pos] = L
+            pos += 1
+            if pos == M:
+                pos = 0
+            meta[1] = pos
+            if count < M:
+                meta[2] = count + 1
+            if rebuilt:
+                rebuilds += 1
+                _rebuild_noinline(S, M, NP, p)
+        else:
+            skipped[k] = True
+            for j in range(p):
+                E[k, j] = np.nan
+        if store:
+            for i in range(NP):
+                for j in range(p):
+                    Th[k, i, j] = theta[i, j]
+    return rebuilds
+
+
+@njit(**NJIT)
+def _rebuild_noinline(S, M, NP, p):
+    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
+    e = np.empty(p)
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0, e, f, v, b, NP, p, M)
 
 
 # --------------------------------------------------------------------------
