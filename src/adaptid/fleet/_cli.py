@@ -1,0 +1,127 @@
+"""The ``adaptid fleet`` command's work, independent of the CLI framework.
+
+The CLI registers :func:`fleet_command` (parsing of arguments only) and
+prints with :func:`summary_text` / :func:`write_result`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+
+from .._validation import param_error
+
+__all__ = ["fleet_command", "resolve_model", "summary_text", "write_result"]
+
+
+def _split_names(value):
+    if value is None:
+        return None
+    if isinstance(value, str):
+        value = [value]
+    out = []
+    for v in value:
+        out.extend(s.strip() for s in str(v).split(",") if s.strip())
+    return out
+
+
+def resolve_model(spec):
+    """A model callable from ``"package.module:attribute"`` (or a callable, returned as is)."""
+    if spec is None or callable(spec):
+        return spec
+    if not isinstance(spec, str) or ":" not in spec:
+        raise param_error("model", "'package.module:callable'", spec)
+    mod, _, attr = spec.partition(":")
+    try:
+        obj = importlib.import_module(mod)
+        for part in attr.split("."):
+            obj = getattr(obj, part)
+    except (ImportError, AttributeError) as err:
+        raise param_error("model", "an importable 'package.module:callable'", spec) from err
+    if not callable(obj):
+        raise param_error("model", "a callable", spec, exc=TypeError)
+    return obj
+
+
+def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=None,
+                  scheduler=None, tracks=None, *, forgetting=None, window=None,
+                  process_cov=None, noise_var=None, P0=None, alpha=0.05,
+                  nan_policy="raise", change_test="a-priori", npartitions=None,
+                  quiet=False):
+    """Run :func:`adaptid.fleet.identify` for the command line.
+
+    Parameters
+    ----------
+    data : str
+        Parquet file, directory or glob (or a CSV file, read with pandas).
+    group, y, time : str
+        Column names (``y`` not needed with ``model``).
+    phi : str or list of str
+        Regressor columns; comma-separated names are split.
+    model : str, optional
+        ``"package.module:callable"`` returning a Regression per group.
+    method : {"rls", "window", "kalman"}
+    scheduler : str, optional
+        ``None`` (in-process), ``"local"`` (start a LocalCluster) or a
+        scheduler address.
+    tracks : str, optional
+        Directory for the per-sample estimates (Parquet).
+    forgetting, window, process_cov, noise_var, P0 : optional
+        Estimator options; ``None`` leaves the estimator's default.
+    alpha, nan_policy, change_test, npartitions
+        As in :func:`adaptid.fleet.identify`.
+    quiet : bool
+        No progress bar.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per device (see :func:`adaptid.fleet.identify`).
+    """
+    from ._identify import identify
+    options = {k: v for k, v in dict(forgetting=forgetting, window=window,
+                                     process_cov=process_cov, noise_var=noise_var,
+                                     P0=P0).items() if v is not None}
+    source = data
+    if isinstance(data, (str, os.PathLike)) and os.fspath(data).lower().endswith(".csv"):
+        import pandas as pd
+        source = pd.read_csv(data)
+    return identify(source, group=group, y=y, phi=_split_names(phi),
+                    model=resolve_model(model), method=method, time=time,
+                    client=scheduler or None, tracks=tracks, nan_policy=nan_policy,
+                    alpha=alpha, change_test=change_test, npartitions=npartitions,
+                    progress=not quiet, **options)
+
+
+def summary_text(result, *, max_rows=10) -> str:
+    """A short human-readable summary: counts, flagged devices, parameter spread."""
+    n = len(result)
+    flagged = result.index[result["change"].to_numpy(dtype=bool)]
+    theta_cols = [c for c in result.columns
+                  if f"stderr_{c}" in result.columns]
+    lines = [f"{n} devices identified, {len(flagged)} with a change flag "
+             f"(CUSUM), {int(result['n_skipped'].sum())} samples skipped"]
+    if theta_cols:
+        desc = result[theta_cols].describe().loc[["mean", "std", "min", "max"]]
+        lines.append(desc.to_string(float_format=lambda v: f"{v:.6g}"))
+    if len(flagged):
+        show = result.loc[flagged[:max_rows], ["change_at", "change_stat", "rms"]]
+        lines.append("flagged:")
+        lines.append(show.to_string(float_format=lambda v: f"{v:.6g}"))
+        if len(flagged) > max_rows:
+            lines.append(f"... and {len(flagged) - max_rows} more")
+    return "\n".join(lines)
+
+
+def write_result(result, path) -> None:
+    """Write the per-device table to ``path`` (.csv, .parquet or .json by extension)."""
+    p = os.fspath(path)
+    low = p.lower()
+    if low.endswith(".csv"):
+        result.to_csv(p)
+    elif low.endswith((".parquet", ".pq")):
+        result.to_parquet(p)
+    elif low.endswith(".json"):
+        result.reset_index().to_json(p, orient="records", indent=1)
+    else:
+        raise param_error("output", "a path ending in .csv, .parquet or .json", p)
