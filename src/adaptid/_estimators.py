@@ -328,7 +328,7 @@ class _RecursiveEstimator:
             Final θ and P, sample counts, sums of squared a-priori errors per
             segment, and the per-sample errors.
         """
-        from ._segments import SegmentResult, check_offsets, segment_sums
+        from ._segments import SegmentResult, check_offsets, segment_stats
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
         N = Phi.shape[0]
         off = check_offsets(offsets, N)
@@ -339,9 +339,10 @@ class _RecursiveEstimator:
         Th, E, skipped = self._alloc((N,), store)
         status = np.empty(G, dtype=np.int64)
         self._segments_kernel(S0, Sout, Phi, Y, off, w, Th, E, skipped, status)
-        n_skip = segment_sums(skipped.astype(np.int64), off).astype(np.int64)
+        n_skip = np.empty(G, dtype=np.int64)
+        sse = np.empty((G, E.shape[1]))
+        segment_stats(E, skipped, off, n_skip, sse)
         n_used = np.diff(off) - n_skip
-        sse = segment_sums(np.where(skipped[:, None], 0.0, E * E), off)
         U, D = self._ud_views(Sout)
         theta = self._theta_view(Sout).copy()
         if self._single:

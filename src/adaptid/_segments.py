@@ -5,8 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 
-from ._validation import as_float_array, param_error
+from ._config import NJIT_PARALLEL
+from ._validation import param_error
 
 __all__ = ["SegmentResult"]
 
@@ -77,8 +79,19 @@ def check_offsets(offsets, N: int) -> np.ndarray:
     return arr
 
 
-def segment_sums(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Sum of ``values`` (first axis) over each segment, empty segments giving 0."""
-    c = np.concatenate([np.zeros((1,) + values.shape[1:]), np.cumsum(values, axis=0)])
-    return c[offsets[1:]] - c[offsets[:-1]]
+@njit(**NJIT_PARALLEL)
+def segment_stats(E, skipped, offsets, n_skip, sse):
+    """Per segment: skipped samples and Σ ε² over the used ones (parallel over segments)."""
+    p = E.shape[1]
+    for g in prange(offsets.shape[0] - 1):
+        c = 0
+        for j in range(p):
+            sse[g, j] = 0.0
+        for k in range(offsets[g], offsets[g + 1]):
+            if skipped[k]:
+                c += 1
+            else:
+                for j in range(p):
+                    sse[g, j] += E[k, j] * E[k, j]
+        n_skip[g] = c
 
