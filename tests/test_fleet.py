@@ -16,16 +16,26 @@ from adaptid import fleet
 from adaptid.datasets import fleet as make_fleet
 from adaptid.diagnostics import cusum, recursive_residuals
 
-dask = pytest.importorskip("dask")
-dd = pytest.importorskip("dask.dataframe")
-da = pytest.importorskip("dask.array")
-distributed = pytest.importorskip("distributed")
+import dask  # noqa: E402  (the test extra installs dask[dataframe] and distributed)
+import dask.array as da  # noqa: E402
+import dask.dataframe as dd  # noqa: E402
+import distributed  # noqa: E402
 
 PHI = ["i", "di_dt", "omega", "sign_i"]
 
 
+_TRUTH = {}
+
+
+def fleet_with_truth(**kw):
+    """make_fleet's frame; its ground truth is kept for truth_of()."""
+    df, truth = make_fleet(**kw, return_truth=True)
+    _TRUTH[id(df)] = truth
+    return df
+
+
 def truth_of(df):
-    return df.attrs["truth"].to_frame()
+    return _TRUTH[id(df)]
 
 
 # ------------------------------------------------------------------ helpers
@@ -78,7 +88,7 @@ def assert_same(res, ref, *, exact_theta=True, phi=PHI):
 # ------------------------------------------------------------------ fixtures
 @pytest.fixture(scope="module")
 def small():
-    return make_fleet(n_devices=24, n_samples=300, seed=3, fault_fraction=0.25)
+    return fleet_with_truth(n_devices=24, n_samples=300, seed=3, fault_fraction=0.25)
 
 
 @pytest.fixture(scope="module")
@@ -230,7 +240,7 @@ def test_tracks_written(tmp_path, small):
 # ------------------------------------------------------------ change flag
 @pytest.fixture(scope="module")
 def faulty_fleet():
-    return make_fleet(n_devices=60, n_samples=1000, seed=0, fault_fraction=0.2)
+    return fleet_with_truth(n_devices=60, n_samples=1000, seed=0, fault_fraction=0.2)
 
 
 @pytest.mark.parametrize("change_test", ["a-priori", "recursive"])
@@ -264,7 +274,7 @@ def test_recursive_change_test_matches_diagnostics(faulty_fleet):
 
 def test_stderr_equals_ols(small):
     """RLS with λ = 1 and a diffuse prior is OLS: θ and standard errors (statsmodels)."""
-    sm = pytest.importorskip("statsmodels.api")
+    import statsmodels.api as sm
     truth = truth_of(small)
     healthy = truth.index[~truth["fault"]][:4]
     res = fleet.identify(small, group="device", y="v", phi=PHI, time="time", P0=1e10)
@@ -376,7 +386,7 @@ def test_lstsq_dask_bad_input(rng):
 # ------------------------------------------------------------------ data set
 def test_fleet_dataset_truth_and_regression():
     kw = dict(n_devices=12, n_samples=400, seed=5, fault_fraction=0.25)
-    df = make_fleet(**kw)
+    df = fleet_with_truth(**kw)
     pd.testing.assert_frame_equal(df, make_fleet(**kw))
     assert list(df.columns) == ["device", "time", "v", "i", "di_dt", "omega", "sign_i"]
     truth = truth_of(df)

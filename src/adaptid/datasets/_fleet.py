@@ -6,54 +6,8 @@ import numpy as np
 
 from .._validation import check_choice, check_int, check_scalar, param_error
 
-__all__ = ["fleet", "FleetTruth"]
+__all__ = ["fleet"]
 
-
-class FleetTruth:
-    """The ground truth of :func:`fleet`, kept in ``df.attrs["truth"]``.
-
-    Behaves as the DataFrame it wraps (``truth["fault"]``, ``truth.loc[3]``,
-    ``truth.index`` …); :meth:`to_frame` returns a copy of it. Not a
-    DataFrame itself, because pandas deep-copies ``attrs`` on every
-    operation and compares them when it concatenates slices (as Dask does):
-    this wrapper copies as itself and compares by identity, so slicing the
-    fleet's frame stays cheap and concatenation works.
-    """
-
-    __slots__ = ("_frame",)
-
-    def __init__(self, frame):
-        self._frame = frame
-
-    def to_frame(self):
-        """A copy of the truth table (pandas.DataFrame indexed by device)."""
-        return self._frame.copy()
-
-    def __getattr__(self, name):
-        return getattr(self._frame, name)
-
-    def __getitem__(self, key):
-        return self._frame[key]
-
-    def __len__(self):
-        return len(self._frame)
-
-    def __eq__(self, other):
-        return self is other
-
-    __hash__ = object.__hash__
-
-    def __copy__(self):
-        return self
-
-    def __deepcopy__(self, memo):
-        return self
-
-    def __reduce__(self):
-        return (FleetTruth, (self._frame,))
-
-    def __repr__(self):
-        return f"FleetTruth(\n{self._frame!r}\n)"
 
 # nominal values of the simulated motors (a small permanent-magnet DC motor)
 _NOMINAL = {"R": 1.0, "L": 5e-3, "Ke": 0.05, "V_b": 0.5}
@@ -64,7 +18,7 @@ _FAULT_PARAMS = ("R", "L", "Ke", "V_b")
 
 
 def fleet(n_devices=100, n_samples=1000, seed=0, *, fault_fraction=0.1, fault_param="R",
-          fault_size=0.3, spread=0.2, noise_std=0.05, dt=1e-3):
+          fault_size=0.3, spread=0.2, noise_std=0.05, dt=1e-3, return_truth=False):
     r"""A synthetic fleet of current-controlled DC motors, some with a fault.
 
     Every device is a permanent-magnet DC motor whose current follows a
@@ -111,22 +65,25 @@ def fleet(n_devices=100, n_samples=1000, seed=0, *, fault_fraction=0.1, fault_pa
         Standard deviation :math:`\sigma_v` of the voltage noise, V, ≥ 0.
     dt : float
         Sample time T, s, > 0.
+    return_truth : bool
+        Also return the ground truth.
 
     Returns
     -------
-    pandas.DataFrame, shape (G·N, 7)
+    df : pandas.DataFrame, shape (G·N, 7)
         Long format, sorted by device then time: ``device`` (int64, 0 … G−1),
         ``time`` (float64, k·T), ``v``, ``i``, ``di_dt``, ``omega``,
-        ``sign_i`` (float64). ``df.attrs["truth"]`` is the ground truth per
-        device, a :class:`FleetTruth` that behaves as (and
-        ``.to_frame()`` returns) a DataFrame indexed by device: the true
+        ``sign_i`` (float64).
+    truth : pandas.DataFrame, only with ``return_truth=True``
+        The ground truth, indexed by device: the true
         parameters before any fault (``R``, ``L``, ``Ke``, ``V_b``),
         ``fault`` (bool), ``fault_param``, ``fault_sample`` (0-based index
         of the first sample with the changed parameter, −1 if none),
         ``fault_time`` (its time, NaN if none) and ``value_after`` (the
         faulty parameter's value after the fault, NaN if none).
-        ``df.attrs["regression"]``
-        is ``{"y": "v", "phi": ["i", "di_dt", "omega", "sign_i"]}``.
+        (Kept out of ``df.attrs``, which pandas copies on every operation
+        and must serialise as JSON when writing Parquet.)
+        ``df.attrs["regression"]`` is ``{"y": "v", "phi": ["i", "di_dt", "omega", "sign_i"]}``.
 
     Notes
     -----
@@ -146,7 +103,8 @@ def fleet(n_devices=100, n_samples=1000, seed=0, *, fault_fraction=0.1, fault_pa
     >>> df = fleet(n_devices=5, n_samples=200, seed=1)
     >>> df.shape, list(df.columns)
     ((1000, 7), ['device', 'time', 'v', 'i', 'di_dt', 'omega', 'sign_i'])
-    >>> int(df.attrs["truth"]["fault"].sum())
+    >>> df, truth = fleet(n_devices=5, n_samples=200, seed=1, return_truth=True)
+    >>> int(truth["fault"].sum())
     0
     """
     import pandas as pd
@@ -224,9 +182,8 @@ def fleet(n_devices=100, n_samples=1000, seed=0, *, fault_fraction=0.1, fault_pa
         "fault_time": np.where(faulty, k_fault * dt, np.nan),
         "value_after": after,
     }, index=pd.Index(np.arange(G, dtype=np.int64), name="device"))
-    df.attrs["truth"] = FleetTruth(truth)
     df.attrs["regression"] = {"y": "v", "phi": list(_PHI)}
-    return df
+    return (df, truth) if return_truth else df
 
 
 def _step_signal(rng, G, N, *, low, high, min_hold=20, max_hold=80):

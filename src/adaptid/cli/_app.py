@@ -1,0 +1,315 @@
+"""The ``adaptid`` command: ``demo``, ``fit``, ``fleet`` and ``info`` (typer + rich).
+
+Errors in the user's input end the command with one line
+``adaptid: error: <message>`` on stderr and exit code 2 (a traceback is
+printed before it only with ``--debug``); typer's own usage errors exit 2 too.
+"""
+
+import sys
+import traceback
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from ._errors import CLIError
+from ._output import Output
+
+__all__ = ["app", "main"]
+
+app = typer.Typer(
+    name="adaptid",
+    help="Least-squares parameter identification from the shell: `adaptid demo` identifies a "
+         "simulated DC motor, `adaptid fit DATA` a model of your data, `adaptid info` reports "
+         "the installation.",
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
+)
+
+QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="Print nothing but errors (and --json).")]
+VerboseOpt = Annotated[bool, typer.Option("--verbose", "-v", help="Print more detail.")]
+DebugOpt = Annotated[bool, typer.Option("--debug", help="Show the traceback of an error.")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print only one JSON object on stdout.")]
+
+
+def _version_callback(value: bool):
+    if value:
+        from adaptid import __version__
+        print(f"adaptid {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _global(
+    ctx: typer.Context,
+    quiet: QuietOpt = False,
+    verbose: VerboseOpt = False,
+    debug: DebugOpt = False,
+    version: Annotated[Optional[bool], typer.Option(
+        "--version", callback=_version_callback, is_eager=True, help="Print the version and exit.")] = None,
+):
+    """Least-squares parameter identification (RLS, sliding window, Kalman, batch)."""
+    ctx.obj = Output(quiet=quiet, verbose=verbose, debug=debug)
+
+
+def _output(ctx: typer.Context, quiet=False, verbose=False, debug=False, json=False) -> Output:
+    base = ctx.obj if isinstance(ctx.obj, Output) else Output()
+    out = Output(quiet=base.quiet or quiet, verbose=base.verbose or verbose,
+                 debug=base.debug or debug, json=json)
+    if out.quiet and out.verbose:
+        _fail("--quiet and --verbose cannot be combined", out)
+    return out
+
+
+def _fail(message: str, out: Output, code: int = 2):
+    line = " ".join(str(message).split())
+    sys.stdout.flush()
+    print(f"adaptid: error: {line}", file=sys.stderr)
+    sys.stderr.flush()
+    raise typer.Exit(code)
+
+
+@contextmanager
+def _guard(out: Output):
+    """Turn every exception into one line on stderr (plus a traceback with --debug)."""
+    try:
+        yield
+    except (typer.Exit, typer.Abort):
+        raise
+    except CLIError as err:
+        if out.debug:
+            traceback.print_exc()
+        _fail(str(err), out, 2)
+    except KeyboardInterrupt:
+        print("adaptid: interrupted", file=sys.stderr)
+        raise typer.Exit(130) from None
+    except (ValueError, TypeError, OSError, MemoryError) as err:
+        if out.debug:
+            traceback.print_exc()
+        _fail(f"{type(err).__name__}: {err}" if not isinstance(err, ValueError) else str(err), out, 2)
+    except Exception as err:  # noqa: BLE001 - a bug: still one line, exit 1
+        if out.debug:
+            traceback.print_exc()
+        _fail(f"internal error ({type(err).__name__}: {err}); run with --debug for the traceback",
+              out, 1)
+
+
+# --------------------------------------------------------------------- demo
+@app.command()
+def demo(
+    ctx: typer.Context,
+    out_dir: Annotated[Path, typer.Option("--out", "-o", help="Report folder.")] = Path("adaptid-report"),
+    seed: Annotated[int, typer.Option(help="Seed of the simulated data set.")] = 0,
+    no_report: Annotated[bool, typer.Option("--no-report", help="Only print the summary table.")] = False,
+    json: JsonOpt = False,
+    quiet: QuietOpt = False,
+    verbose: VerboseOpt = False,
+    debug: DebugOpt = False,
+):
+    """Identify a simulated DC motor (R, L, Ke, J, B, Kt, friction) with RLS, the sliding
+    window and the Kalman filter side by side; print a summary and write a report."""
+    out = _output(ctx, quiet, verbose, debug, json)
+    with _guard(out):
+        from ._demo import run_demo
+
+        result = run_demo(out_dir=None if no_report else out_dir, seed=seed, output=out)
+        if out.json:
+            out.emit_json(result)
+
+
+# ---------------------------------------------------------------------- fit
+@app.command()
+def fit(
+    ctx: typer.Context,
+    data: Annotated[Path, typer.Argument(help="CSV (.csv, .tsv, .txt, .gz), Parquet (.parquet) or .npz file.",
+                                         show_default=False)],
+    y: Annotated[Optional[str], typer.Option("--y", help="Output column.", rich_help_panel="Model")] = None,
+    phi: Annotated[Optional[str], typer.Option("--phi", help="Regressor columns, comma separated.",
+                                               rich_help_panel="Model")] = None,
+    u: Annotated[Optional[str], typer.Option("--u", help="Input column(s) for --arx / --fir.",
+                                             rich_help_panel="Model")] = None,
+    arx: Annotated[Optional[str], typer.Option("--arx", metavar="NA,NB,NK", help="ARX model orders.",
+                                               rich_help_panel="Model")] = None,
+    fir_: Annotated[Optional[str], typer.Option("--fir", metavar="NB,NK", help="FIR model orders.",
+                                                rich_help_panel="Model")] = None,
+    dc_motor: Annotated[bool, typer.Option("--dc-motor", help="DC-motor physics: electrical and mechanical "
+                                           "equations from time, voltage, current, speed.",
+                                           rich_help_panel="Model")] = False,
+    time: Annotated[Optional[str], typer.Option("--time", help="Time column (report axis; --dc-motor: "
+                                                "default 'time').", rich_help_panel="Model")] = None,
+    voltage: Annotated[Optional[str], typer.Option("--voltage", help="--dc-motor voltage column.",
+                                                   rich_help_panel="Model")] = None,
+    current: Annotated[Optional[str], typer.Option("--current", help="--dc-motor current column.",
+                                                   rich_help_panel="Model")] = None,
+    speed: Annotated[Optional[str], typer.Option("--speed", help="--dc-motor speed column.",
+                                                 rich_help_panel="Model")] = None,
+    cutoff: Annotated[Optional[float], typer.Option("--cutoff", help="--dc-motor derivative filter "
+                                                    "cut-off (Hz).", rich_help_panel="Model")] = None,
+    method: Annotated[Optional[str], typer.Option("--method", "-m", metavar="rls|window|kalman|batch",
+                                                  help="Estimator (default rls).",
+                                                  rich_help_panel="Method")] = None,
+    forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1] (rls, window).",
+                                                        rich_help_panel="Method")] = None,
+    window: Annotated[Optional[int], typer.Option("--window", help="Window length M (window).",
+                                                  rich_help_panel="Method")] = None,
+    process_cov: Annotated[Optional[float], typer.Option("--process-cov", help="R1: random-walk "
+                                                         "variance per sample (kalman).",
+                                                         rich_help_panel="Method")] = None,
+    noise_var: Annotated[Optional[float], typer.Option("--noise-var", help="R2: noise variance (kalman).",
+                                                       rich_help_panel="Method")] = None,
+    p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I (default 1e4).",
+                                                rich_help_panel="Method")] = None,
+    nan: Annotated[str, typer.Option("--nan", metavar="skip|error", help="Rows with missing values: "
+                                     "skip them (counted) or stop with an error.")] = "error",
+    out_dir: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write a report folder.")] = None,
+    save_state: Annotated[Optional[Path], typer.Option("--save-state", help="Save the estimator's "
+                                                       "state after the run.")] = None,
+    resume: Annotated[Optional[Path], typer.Option("--resume", help="Continue from a saved state.")] = None,
+    json: JsonOpt = False,
+    quiet: QuietOpt = False,
+    verbose: VerboseOpt = False,
+    debug: DebugOpt = False,
+):
+    """Identify y = θᵀφ + e from a data file, recursively or in one batch.
+
+    Standard errors of recursive methods are sqrt(σ̂² diag(P)) with σ̂² the mean
+    squared a-priori error after a warm-up of min(10 n, N/2) samples.
+    """
+    out = _output(ctx, quiet, verbose, debug, json)
+    with _guard(out):
+        from ._engine import MethodSpec
+        from ._fit import run_fit
+        from ._problem import Structure, parse_orders, split_names
+
+        structure = Structure(
+            y=y, phi=split_names(phi, "--phi"), u=split_names(u, "--u"),
+            arx=parse_orders(arx, "--arx", ("na", "nb", "nk")),
+            fir=parse_orders(fir_, "--fir", ("nb", "nk")), dc_motor=dc_motor, time=time,
+            voltage=voltage, current=current, speed=speed, cutoff=cutoff)
+        if method is not None:
+            method = method.strip().lower()
+        spec = MethodSpec(method=method, forgetting=forgetting, window=window,
+                          process_cov=process_cov, noise_var=noise_var, P0=p0)
+        result = run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
+                         save_state=save_state, resume=resume, output=out)
+        if out.json:
+            out.emit_json(result)
+
+
+# -------------------------------------------------------------------- fleet
+@app.command()
+def fleet(
+    ctx: typer.Context,
+    data: Annotated[str, typer.Argument(help="Parquet file, folder or glob (or a CSV file), "
+                                        "long format: one row per sample.", show_default=False)],
+    group: Annotated[str, typer.Option("--group", "-g", help="Device-id column.")],
+    y: Annotated[Optional[str], typer.Option("--y", help="Output column.")] = None,
+    phi: Annotated[Optional[str], typer.Option("--phi", help="Regressor columns, comma separated.")] = None,
+    model: Annotated[Optional[str], typer.Option("--model", metavar="PKG.MOD:CALLABLE",
+                                                 help="A callable mapping one device's rows to a "
+                                                 "Regression (instead of --y/--phi).")] = None,
+    time: Annotated[Optional[str], typer.Option("--time", help="Ordering column (rows sorted by it "
+                                                "within each device; default: stored order).")] = None,
+    method: Annotated[str, typer.Option("--method", "-m", metavar="rls|window|kalman")] = "rls",
+    forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1].")] = None,
+    window: Annotated[Optional[int], typer.Option("--window", help="Window length M.")] = None,
+    process_cov: Annotated[Optional[float], typer.Option("--process-cov", help="R1 (kalman).")] = None,
+    noise_var: Annotated[Optional[float], typer.Option("--noise-var", help="R2 (kalman).")] = None,
+    p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I.")] = None,
+    alpha: Annotated[float, typer.Option("--alpha", help="Level of each device's CUSUM change "
+                                         "test (use 0.05/G for a family-wise level).")] = 0.05,
+    nan: Annotated[str, typer.Option("--nan", metavar="skip|error")] = "error",
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Dask scheduler address, "
+                                                     "or 'local' to start a LocalCluster "
+                                                     "(default: in-process).")] = None,
+    tracks: Annotated[Optional[Path], typer.Option("--tracks", help="Folder for per-sample "
+                                                   "estimates (Parquet, partitioned by device).")] = None,
+    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Write the per-device "
+                                                   "table (.csv, .parquet or .json).")] = None,
+    json: JsonOpt = False,
+    quiet: QuietOpt = False,
+    verbose: VerboseOpt = False,
+    debug: DebugOpt = False,
+):
+    """Identify every device of a fleet with the same model and estimator (on Dask);
+    one row of results per device, with a CUSUM change flag."""
+    out = _output(ctx, quiet, verbose, debug, json)
+    with _guard(out):
+        nan_policy = {"skip": "skip", "error": "raise"}.get(nan.strip().lower())
+        if nan_policy is None:
+            raise CLIError(f"--nan must be 'skip' or 'error', got {nan!r}")
+        if method.strip().lower() not in ("rls", "window", "kalman"):
+            raise CLIError(f"--method must be rls, window or kalman for fleet, got {method!r}")
+        from adaptid.fleet._cli import fleet_command, summary_text, write_result
+
+        result = fleet_command(data, group, y=y, phi=phi, model=model,
+                               method=method.strip().lower(), time=time, scheduler=scheduler,
+                               tracks=None if tracks is None else str(tracks),
+                               forgetting=forgetting, window=window, process_cov=process_cov,
+                               noise_var=noise_var, P0=p0, alpha=alpha, nan_policy=nan_policy,
+                               quiet=out.quiet or out.json or not sys.stderr.isatty())
+        if output is not None:
+            write_result(result, output)
+        if out.json:
+            out.emit_json({"n_devices": int(len(result)),
+                           "n_flagged": int(result["change"].sum()),
+                           "devices": result.reset_index().to_dict(orient="records")})
+        elif out.chatty:
+            out.print(summary_text(result))
+
+
+# --------------------------------------------------------------------- info
+@app.command()
+def info(
+    ctx: typer.Context,
+    json: JsonOpt = False,
+    quiet: QuietOpt = False,
+    verbose: VerboseOpt = False,
+    debug: DebugOpt = False,
+):
+    """Versions of adaptid, Python, NumPy, SciPy, numba; numba's threading layer; installed extras."""
+    out = _output(ctx, quiet, verbose, debug, json)
+    with _guard(out):
+        from ._info import gather_info
+
+        data = gather_info()
+        if out.json:
+            out.emit_json(data)
+            return
+        if not out.chatty:
+            return
+        from ._output import rich_table
+
+        rows = [[label, data[key]] for key, label in (
+            ("adaptid", "adaptid"), ("python", "Python"), ("platform", "platform"),
+            ("numpy", "NumPy"), ("scipy", "SciPy"), ("numba", "numba"),
+            ("numba_threading_layer_config", "numba threading layer (config)"),
+            ("numba_threading_layer", "numba threading layer (in use)"),
+            ("numba_num_threads", "numba threads"), ("cpu_count", "CPUs"))]
+        if out.verbose:
+            rows.append(["executable", data["executable"]])
+        out.print(rich_table("adaptid installation", ["item", "value"], rows, left=2,
+                             show_header=False))
+        out.print(rich_table("optional extras (pip install 'adaptid[EXTRA]')",
+                             ["extra", "installed", "missing"],
+                             [[name, "yes" if e["installed"] else "no", ", ".join(e["missing"])]
+                              for name, e in data["extras"].items()], left=3))
+
+
+def main(argv=None) -> int:
+    """Run the command line (``adaptid`` / ``python -m adaptid``); returns the exit code."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    try:
+        app(args=args, prog_name="adaptid", standalone_mode=True)
+    except SystemExit as exc:
+        code = exc.code
+        if code is None:
+            return 0
+        if isinstance(code, int):
+            return code
+        print(code, file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,342 @@
+r"""The estimation engine shared by ``adaptid fit`` and ``adaptid demo``.
+
+Recursive runs are done in chunks (each one compiled ``run`` call), reading
+the estimator's ``P`` at every chunk end: that gives the ±2σ bands of the
+report and drives the progress bar, and the result is bit-for-bit the one
+of a single ``run`` (the estimator's state carries over exactly).
+
+Standard errors of a recursive estimate are
+
+.. math::
+
+    \mathrm{se}_i = \sqrt{\hat\sigma^2\,P_{ii}/R_2},\qquad
+    \hat\sigma^2 = \frac{1}{|K|}\sum_{k\in K}\varepsilon_k^2,
+
+with :math:`\varepsilon_k` the a-priori errors of the run, K the samples
+after a warm-up of min(10 n, N/2) samples (none when the run continues a
+saved state) that were not skipped, and :math:`R_2` the Kalman filter's
+``noise_var`` (1 for RLS and the sliding window). For the sliding window P
+is the exact inverse information of the window, so this is the usual
+least-squares standard error; for RLS with forgetting λ < 1 it is
+conservative by about :math:`\sqrt{(1+\lambda)}` (the exponentially
+weighted estimate's covariance is :math:`\approx\sigma^2 P/(1+\lambda)`).
+For ``batch`` the standard errors are :func:`adaptid.lstsq`'s.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._errors import CLIError
+
+__all__ = ["MethodSpec", "EquationFit", "fit_equation", "run_chunked", "METHODS"]
+
+METHODS = ("rls", "window", "kalman", "batch")
+_CLASS_TO_METHOD = {"RLS": "rls", "SlidingWindowRLS": "window", "KalmanRLS": "kalman"}
+
+
+@dataclass
+class MethodSpec:
+    """The estimation method and its options, as given on the command line.
+
+    ``None`` means "not given" (the library's default is used), so that
+    inconsistent combinations can be named.
+    """
+
+    method: str | None = None
+    forgetting: float | None = None
+    window: int | None = None
+    process_cov: float | None = None
+    noise_var: float | None = None
+    P0: float | None = None
+
+    @property
+    def resolved(self) -> str:
+        return self.method or "rls"
+
+    def check(self, *, resume=None, save_state=None):
+        """Raise CLIError for an inconsistent combination of options."""
+        m = self.method
+        if m is not None and m not in METHODS:
+            raise CLIError(f"--method must be one of {', '.join(METHODS)}, got {m!r}")
+        if resume is not None:
+            if m == "batch":
+                raise CLIError("--resume does not apply to --method batch (no state to continue)")
+        else:
+            m = self.resolved
+            if self.window is not None and m != "window":
+                raise CLIError(f"--window applies to --method window only, not --method {m}")
+            if m == "window" and self.window is None:
+                raise CLIError("--method window needs --window M (the number of samples in the window)")
+            if self.forgetting is not None and m not in ("rls", "window"):
+                raise CLIError(f"--forgetting applies to --method rls or window, not --method {m}")
+            for opt, val in (("--process-cov", self.process_cov), ("--noise-var", self.noise_var)):
+                if val is not None and m != "kalman":
+                    raise CLIError(f"{opt} applies to --method kalman only, not --method {m}")
+            if m == "kalman" and self.process_cov is None:
+                raise CLIError("--method kalman needs --process-cov Q (variance of the parameters' "
+                               "random-walk step per sample)")
+            if self.P0 is not None and m == "batch":
+                raise CLIError("--P0 does not apply to --method batch (batch least squares has no prior)")
+        if save_state is not None and (self.method == "batch"):
+            raise CLIError("--save-state does not apply to --method batch (no recursive state)")
+        if self.forgetting is not None and not (0.0 < self.forgetting <= 1.0):
+            raise CLIError(f"--forgetting must be in (0, 1], got {self.forgetting:g}")
+        if self.window is not None and self.window < 1:
+            raise CLIError(f"--window must be a positive integer, got {self.window}")
+        if self.process_cov is not None and not (self.process_cov >= 0.0 and math.isfinite(self.process_cov)):
+            raise CLIError(f"--process-cov must be a finite number >= 0, got {self.process_cov:g}")
+        if self.noise_var is not None and not (self.noise_var > 0.0 and math.isfinite(self.noise_var)):
+            raise CLIError(f"--noise-var must be a finite number > 0, got {self.noise_var:g}")
+        if self.P0 is not None and not (self.P0 > 0.0 and math.isfinite(self.P0)):
+            raise CLIError(f"--P0 must be a finite number > 0, got {self.P0:g}")
+
+    def make(self, n: int, nan_policy: str):
+        """A fresh estimator for n parameters."""
+        import adaptid
+
+        kw = {"nan_policy": nan_policy}
+        if self.P0 is not None:
+            kw["P0"] = self.P0
+        m = self.resolved
+        if m in ("rls", "window") and self.forgetting is not None:
+            kw["forgetting"] = self.forgetting
+        if m == "window" and self.window < n:
+            raise CLIError(f"--window must be at least the number of parameters ({n}), got {self.window}")
+        try:
+            if m == "rls":
+                return adaptid.RLS(n, **kw)
+            if m == "window":
+                return adaptid.SlidingWindowRLS(n, self.window, **kw)
+            if m == "kalman":
+                if self.noise_var is not None:
+                    kw["noise_var"] = self.noise_var
+                return adaptid.KalmanRLS(n, process_cov=self.process_cov, **kw)
+        except ValueError as err:
+            raise CLIError(str(err)) from None
+        return None  # batch
+
+    def adopt(self, est, n: int, nan_policy: str, path):
+        """Check a resumed estimator against the options given; set its nan policy."""
+        method = _CLASS_TO_METHOD.get(type(est).__name__)
+        if self.method is not None and self.method != method:
+            raise CLIError(f"--method {self.method} differs from the state file {path} "
+                           f"(a {type(est).__name__}, --method {method})")
+        if est.n_params != n:
+            raise CLIError(f"--resume {path}: the state has {est.n_params} parameters, the "
+                           f"regressors given have {n}")
+        checks = [("--forgetting", self.forgetting, getattr(est, "forgetting", None)),
+                  ("--window", self.window, getattr(est, "window", None)),
+                  ("--noise-var", self.noise_var, getattr(est, "noise_var", None))]
+        for opt, given, have in checks:
+            if given is None:
+                continue
+            if have is None:
+                raise CLIError(f"{opt} does not apply to the {type(est).__name__} in {path}")
+            if not _same(given, have):
+                raise CLIError(f"{opt} {given:g} differs from the state file {path} ({have:g}); "
+                               "the state fixes the estimator's options")
+        if self.process_cov is not None:
+            pc = getattr(est, "process_cov", None)
+            if pc is None:
+                raise CLIError(f"--process-cov does not apply to the {type(est).__name__} in {path}")
+            if not np.array_equal(pc, np.eye(n) * self.process_cov):
+                raise CLIError(f"--process-cov {self.process_cov:g} differs from the state file {path}")
+        if self.P0 is not None:
+            raise CLIError("--P0 does not apply with --resume (the state file holds P)")
+        self.method = method
+        if getattr(est, "window", None) is not None:
+            self.window = est.window
+        if est.nan_policy != nan_policy:
+            st = est.get_state()
+            st["options"]["nan_policy"] = nan_policy
+            est = type(est).from_state(st)
+        return est
+
+    def label(self, est=None) -> str:
+        m = self.resolved
+        if m == "rls":
+            lam = getattr(est, "forgetting", self.forgetting if self.forgetting is not None else 1.0)
+            return f"RLS λ={_fmt_opt(lam)}"
+        if m == "window":
+            return f"window M={getattr(est, 'window', self.window)}"
+        if m == "kalman":
+            return "Kalman"
+        return "batch LS"
+
+
+def _fmt_opt(v) -> str:
+    try:
+        return f"{float(v):g}"
+    except (TypeError, ValueError):
+        return str(v)
+
+
+def _same(a, b) -> bool:
+    try:
+        return float(a) == float(b)
+    except (TypeError, ValueError):
+        return False
+
+
+@dataclass
+class EquationFit:
+    """The estimate of one regression ``y = Φθ + e`` and what the report needs."""
+
+    title: str
+    method: str
+    label: str
+    names: list
+    theta: np.ndarray            # (n,)
+    stderr: np.ndarray           # (n,)
+    cov: np.ndarray              # (n, n): sigma2 * P / R2, or lstsq's cov
+    sigma2: float
+    n_samples: int
+    n_skipped: int
+    error: np.ndarray            # (N,) a-priori errors (recursive) or residuals (batch)
+    index: np.ndarray            # (N,) sample index of each regression row
+    track: np.ndarray | None = None      # (N, n) estimates after each sample
+    ends: np.ndarray | None = None       # (K,) row index of each chunk end
+    band: np.ndarray | None = None       # (K, n) one standard error at each chunk end
+    cov_ends: np.ndarray | None = None   # (K, n, n) covariance at each chunk end
+    estimator: object = None
+    n_rebuilds: int = 0
+    warnings: list = field(default_factory=list)
+    cusum: object = None
+    rms_error: float = float("nan")
+
+
+def run_chunked(est, Phi, y, *, n_chunks=200, advance=None):
+    """Run ``est`` over (Phi, y) in up to ``n_chunks`` compiled calls.
+
+    Returns ``(theta (N, n), error (N,), skipped (N,), ends (K,), P (K, n, n),
+    n_rebuilds)``; ``ends[j]`` is the 0-based row after which ``P[j]`` was read.
+    """
+    N = len(y)
+    K = max(1, min(int(n_chunks), N))
+    edges = np.unique(np.linspace(0, N, K + 1).round().astype(np.int64))
+    thetas, errors, skipped, Ps, ends = [], [], [], [], []
+    rebuilds = 0
+    for a, b in zip(edges[:-1], edges[1:]):
+        tr = est.run(Phi[a:b], y[a:b])
+        thetas.append(tr.theta)
+        errors.append(tr.error)
+        skipped.append(tr.skipped)
+        rebuilds += tr.n_rebuilds
+        Ps.append(est.P)
+        ends.append(b - 1)
+        if advance is not None:
+            advance(int(b - a))
+    n = est.n_params
+    if not thetas:
+        return (np.empty((0, n)), np.empty(0), np.zeros(0, bool), np.empty(0, np.int64),
+                np.empty((0, n, n)), 0)
+    return (np.concatenate(thetas), np.concatenate(errors), np.concatenate(skipped),
+            np.asarray(ends, dtype=np.int64), np.stack(Ps), rebuilds)
+
+
+def noise_variance(error, skipped, *, warmup: int) -> float:
+    """Mean squared a-priori error after the warm-up, over samples not skipped."""
+    e = np.asarray(error, dtype=np.float64)[warmup:]
+    e = e[np.isfinite(e)]
+    if e.size == 0:
+        return float("nan")
+    return float(np.mean(e * e))
+
+
+def fit_equation(title, names, Phi, y, index, spec: MethodSpec, *, nan_policy="raise",
+                 est=None, n_chunks=200, advance=None, want_cusum=False) -> EquationFit:
+    """Estimate one regression with the method of ``spec`` (or continue ``est``)."""
+    N, n = Phi.shape
+    caught = []
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        if spec.resolved == "batch" and est is None:
+            fit = _fit_batch(title, names, Phi, y, index, spec, advance)
+        else:
+            fresh = est is None
+            if fresh:
+                est = spec.make(n, nan_policy)
+            start_updates = est.n_updates
+            try:
+                th, err, skipped, ends, Ps, rebuilds = run_chunked(
+                    est, Phi, y, n_chunks=n_chunks, advance=advance)
+            except ValueError as e:
+                raise CLIError(f"{title}: {e}") from None
+            warm = min(10 * n, N // 2) if (fresh or start_updates == 0) else 0
+            sigma2 = noise_variance(err, skipped, warmup=warm)
+            r2 = float(getattr(est, "noise_var", 1.0))
+            scale = sigma2 / r2 if np.isfinite(sigma2) else np.nan
+            P = est.P
+            cov = scale * P
+            band = np.sqrt(np.maximum(scale * np.diagonal(Ps, axis1=1, axis2=2), 0.0))
+            finite = np.isfinite(err)
+            fit = EquationFit(
+                title=title, method=spec.resolved, label=spec.label(est), names=list(names),
+                theta=np.asarray(est.theta, dtype=np.float64).copy(),
+                stderr=np.sqrt(np.maximum(np.diag(cov), 0.0)), cov=cov, sigma2=sigma2,
+                n_samples=N, n_skipped=int(np.count_nonzero(skipped)), error=err, index=index,
+                track=th, ends=ends, band=band, cov_ends=scale * Ps, estimator=est,
+                n_rebuilds=int(rebuilds),
+                rms_error=float(np.sqrt(np.mean(err[warm:][finite[warm:]] ** 2)))
+                if finite[warm:].any() else float("nan"))
+        if want_cusum:
+            fit.cusum = _cusum(Phi, y)
+    for w in rec:
+        msg = " ".join(str(w.message).split())
+        if msg not in caught:
+            caught.append(msg)
+    fit.warnings = caught
+    return fit
+
+
+def _fit_batch(title, names, Phi, y, index, spec, advance):
+    import adaptid
+
+    ok = np.isfinite(Phi).all(axis=1) & np.isfinite(y)
+    n = Phi.shape[1]
+    if ok.sum() < n:
+        raise CLIError(f"{title}: {int(ok.sum())} usable sample(s) for {n} parameters; "
+                       "batch least squares needs at least as many samples as parameters")
+    try:
+        res = adaptid.lstsq(Phi[ok], y[ok])
+    except ValueError as e:
+        raise CLIError(f"{title}: {e}") from None
+    if advance is not None:
+        advance(len(y))
+    err = np.full(len(y), np.nan)
+    err[ok] = res.residuals
+    return EquationFit(
+        title=title, method="batch", label=spec.label(), names=list(names),
+        theta=np.asarray(res.theta, dtype=np.float64), stderr=np.asarray(res.stderr),
+        cov=np.asarray(res.cov), sigma2=float(res.sigma2), n_samples=len(y),
+        n_skipped=int((~ok).sum()), error=err, index=index,
+        rms_error=float(np.sqrt(np.mean(res.residuals ** 2))))
+
+
+def _cusum(Phi, y):
+    """CUSUM of the recursive residuals over the complete rows, or None."""
+    from adaptid.diagnostics import cusum, recursive_residuals
+
+    ok = np.isfinite(Phi).all(axis=1) & np.isfinite(y)
+    Phi, y = Phi[ok], y[ok]
+    rows = np.flatnonzero(ok)
+    if len(y) <= Phi.shape[1] + 2:
+        return None
+    try:
+        w = recursive_residuals(Phi, y)
+    except ValueError:
+        return None
+    k = rows[Phi.shape[1]:]
+    good = np.isfinite(w)
+    if good.sum() < 3:
+        return None
+    try:
+        res = cusum(w[good])
+    except ValueError:
+        return None
+    return {"rows": k[good], "result": res}

@@ -1,0 +1,214 @@
+"""``adaptid fit DATA``: read a file, build the regression, estimate, report."""
+
+from __future__ import annotations
+
+import os
+import time as _time
+from pathlib import Path
+
+import numpy as np
+
+from ._engine import MethodSpec, fit_equation
+from ._errors import CLIError
+from ._io import read_table
+from ._output import Output
+from ._problem import Problem, Structure, build_problem
+
+__all__ = ["run_fit"]
+
+N_CHUNKS = 200
+
+
+def _load_resume(path):
+    from adaptid._exceptions import StateFileError
+    from adaptid._state import load_state
+
+    try:
+        return load_state(path)
+    except StateFileError as err:
+        raise CLIError(f"--resume: {err}") from None
+
+
+def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
+            save_state=None, resume=None, output: Output) -> dict:
+    """The whole ``fit`` command; returns the JSON-ready result."""
+    t0 = _time.perf_counter()
+    structure.check()
+    spec.check(resume=resume, save_state=save_state)
+    if nan not in ("skip", "error"):
+        raise CLIError(f"--nan must be skip or error, got {nan!r}")
+    if structure.kind == "dc-motor" and (save_state is not None or resume is not None):
+        raise CLIError("--save-state/--resume are not available with --dc-motor (two estimators "
+                       "and filtered derivatives); use --y/--phi with the regressor columns")
+    if save_state is not None:
+        folder = Path(os.fspath(save_state)).parent
+        if str(folder) and not folder.is_dir():
+            raise CLIError(f"--save-state {save_state}: the folder {folder} does not exist")
+    est0 = _load_resume(resume) if resume is not None else None
+
+    table = read_table(data)
+    output.detail(f"read {table.path} ({table.kind}): columns {', '.join(table.names[:20])}")
+    problem = build_problem(table, structure, nan)
+    policy = "skip" if nan == "skip" else "raise"
+    if est0 is not None:
+        n = problem.equations[0][2].shape[1]
+        est0 = spec.adopt(est0, n, policy, resume)
+    for title, names, Phi, y, index in problem.equations:
+        if len(y) == 0:
+            raise CLIError(f"{table.path}: no samples left for the {title} regression "
+                           f"({problem.n_rows} rows in the file)")
+    want_cusum = out is not None
+    total = sum(len(eq[3]) for eq in problem.equations)
+    fits = []
+    with output.progress(total, f"fitting ({spec.resolved})") as advance:
+        for title, names, Phi, y, index in problem.equations:
+            fits.append(fit_equation(title, names, Phi, y, index, spec, nan_policy=policy,
+                                     est=est0, n_chunks=N_CHUNKS, advance=advance,
+                                     want_cusum=want_cusum))
+    for f in fits:
+        for w in f.warnings:
+            output.warn(f"{f.title}: {w}")
+    if save_state is not None:
+        try:
+            fits[0].estimator.save_state(save_state)
+        except OSError as err:
+            raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err})") from None
+
+    physical = None
+    if problem.regs is not None:
+        from ._physical import physical_estimates
+
+        physical = physical_estimates(problem.regs, fits[0], fits[1])
+
+    result = _result(table, problem, fits, spec, physical, nan)
+    result["elapsed_s"] = _time.perf_counter() - t0
+    if out is not None:
+        result["report"] = str(_write_report(out, table, problem, fits, physical, result))
+    _print(output, result, fits, physical)
+    return result
+
+
+def _result(table, problem: Problem, fits, spec, physical, nan) -> dict:
+    names, theta, stderr = [], [], []
+    for f in fits:
+        prefix = f"{f.title}:" if len(fits) > 1 else ""
+        names += [prefix + n for n in f.names]
+        theta += list(f.theta)
+        stderr += list(f.stderr)
+    res = {
+        "file": str(table.path),
+        "model": problem.kind,
+        "method": spec.resolved,
+        "names": names,
+        "theta": theta,
+        "stderr": stderr,
+        "n_samples": int(fits[0].n_samples),
+        "n_skipped": int(sum(f.n_skipped for f in fits)),
+        "n_rows": int(problem.n_rows),
+        "nan_policy": nan,
+        "sigma2": [f.sigma2 for f in fits] if len(fits) > 1 else fits[0].sigma2,
+        "rms_error": [f.rms_error for f in fits] if len(fits) > 1 else fits[0].rms_error,
+        "warnings": [f"{f.title}: {w}" for f in fits for w in f.warnings],
+    }
+    if len(fits) > 1:
+        res["equations"] = {f.title: {"names": f.names, "theta": list(f.theta),
+                                      "stderr": list(f.stderr), "n_samples": f.n_samples,
+                                      "n_skipped": f.n_skipped} for f in fits}
+    est = fits[0].estimator
+    if est is not None:
+        res["n_updates"] = int(est.n_updates)
+        opts = {k: v for k, v in est._options().items() if k not in ("nan_policy", "process_cov")}
+        if hasattr(est, "process_cov"):
+            opts["process_cov_diag"] = list(np.diag(est.process_cov))
+        res["options"] = {k: (v if isinstance(v, (int, float, list)) else str(v)) for k, v in opts.items()}
+    if physical is not None:
+        res["physical"] = {k: {"estimate": v[0], "stderr": v[1]} for k, v in physical.items()}
+    return res
+
+
+def _print(output: Output, result, fits, physical):
+    if not output.chatty:
+        return
+    from ._output import rich_table
+
+    c = output.console
+    skipped = result["n_skipped"]
+    c.print(f"adaptid fit {result['file']}: {result['model']} model, {fits[0].label}, "
+            f"{result['n_samples']} samples, {skipped} skipped"
+            + (" (rows with missing values, --nan skip)" if skipped else ""),
+            markup=False, soft_wrap=True)
+    for f in fits:
+        c.print(rich_table(f"{f.title}: RMS a-priori error {f.rms_error:.4g}"
+                           if f.track is not None else f"{f.title}: RMS residual {f.rms_error:.4g}",
+                           ["parameter", "estimate", "stderr"],
+                           [[n, f"{th:.6g}", f"{se:.3g}"] for n, th, se in zip(f.names, f.theta, f.stderr)]))
+    if physical is not None:
+        c.print(rich_table("physical parameters", ["parameter", "estimate", "stderr"],
+                           [[k, f"{v:.6g}", f"{se:.3g}"] for k, (v, se) in physical.items()]))
+    if "report" in result:
+        c.print(f"report: {result['report']}", markup=False, soft_wrap=True)
+    output.detail(f"done in {result['elapsed_s']:.2f} s", markup=False, soft_wrap=True)
+
+
+def _write_report(out, table, problem: Problem, fits: list, physical, result):
+    from ._report import Report, cusum_figure, errors_figure, tracks_figure
+
+    rep = Report(out, f"adaptid fit: {Path(table.path).name}",
+                 f"{problem.kind} model · {fits[0].label} · {result['n_samples']} samples · "
+                 f"{result['n_skipped']} skipped · nan policy {result['nan_policy']}")
+    rep.section("Estimates")
+    for f in fits:
+        if len(fits) > 1:
+            rep.note(f"{f.title} equation")
+        rep.table(["parameter", "estimate", "stderr", "−2σ", "+2σ"],
+                  [[n, th, se, th - 2 * se, th + 2 * se] for n, th, se in zip(f.names, f.theta, f.stderr)])
+    if physical is not None:
+        rep.note("physical parameters (delta method from both equations)")
+        rep.table(["parameter", "estimate", "stderr"], [[k, v, se] for k, (v, se) in physical.items()])
+    rep.warnings(result["warnings"])
+    rep.end()
+
+    use_time = problem.time is not None
+    xlabel = "time" if use_time else "sample"
+
+    def xaxis(index):
+        return problem.time[index] if use_time else index + 1.0
+
+    if fits[0].track is not None:
+        panels = []
+        for f in fits:
+            x = xaxis(f.index)
+            for j, name in enumerate(f.names):
+                xb = x[f.ends]
+                yb = f.track[f.ends, j]
+                panels.append({"name": (f"{f.title}: " if len(fits) > 1 else "") + name,
+                               "series": [{"label": f.label, "x": x, "y": f.track[:, j], "xb": xb,
+                                           "lo": yb - 2 * f.band[:, j], "hi": yb + 2 * f.band[:, j]}]})
+        rep.section("Parameter tracks")
+        rep.figure("tracks.png", tracks_figure(panels, xlabel=xlabel),
+                   "Estimates after each sample, with ±2σ bands from the estimator's P "
+                   "(σ² = mean squared a-priori error after warm-up).")
+        rep.end()
+    rep.section("Prediction error")
+    rows = [(f"{f.title}: " + ("a-priori error" if f.track is not None else "residual"),
+             [(f.label, xaxis(f.index), f.error)]) for f in fits]
+    rep.figure("errors.png", errors_figure(rows, xlabel=xlabel),
+               "A-priori prediction errors ε = y − φᵀθ̂ (recursive) or residuals (batch).")
+    rep.end()
+    items = [(f.title, xaxis(f.index[f.cusum["rows"]]), f.cusum["result"]) for f in fits
+             if f.cusum is not None]
+    if items:
+        rep.section("Parameter constancy (CUSUM)")
+        rep.figure("cusum.png", cusum_figure(items, xlabel=xlabel),
+                   "CUSUM of the recursive residuals (Brown, Durbin & Evans 1975) with its 95 % bounds.")
+        rep.end()
+    estimates = []
+    for f in fits:
+        for n, th, se in zip(f.names, f.theta, f.stderr):
+            estimates.append({"name": (f"{f.title}:" if len(fits) > 1 else "") + n,
+                              "method": f.method, "estimate": th, "stderr": se, "truth": None})
+    if physical is not None:
+        for k, (v, se) in physical.items():
+            estimates.append({"name": k, "method": fits[0].method, "estimate": v, "stderr": se,
+                              "truth": None})
+    return rep.write(estimates)

@@ -1,0 +1,304 @@
+"""Reading data files for ``adaptid fit``: CSV, Parquet and ``.npz``.
+
+Every problem becomes a :class:`~adaptid.cli._errors.CLIError` with a
+one-line message that names the file, the column and the first row at fault.
+Rows are numbered from 1 in the order of the data (the header of a CSV file
+is not a row). Nothing is dropped silently: missing values (empty fields,
+``NA``, ``nan``) are reported, and only skipped when the user asks for it.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import os
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import CLIError
+
+__all__ = ["Table", "read_table", "SUFFIXES"]
+
+SUFFIXES = {
+    ".csv": "csv", ".txt": "csv", ".tsv": "csv", ".csv.gz": "csv", ".tsv.gz": "csv",
+    ".parquet": "parquet", ".pq": "parquet",
+    ".npz": "npz",
+}
+_MAX_LISTED = 12
+
+
+def _kind_of(path: Path) -> str:
+    name = path.name.lower()
+    for suffix in sorted(SUFFIXES, key=len, reverse=True):
+        if name.endswith(suffix):
+            return SUFFIXES[suffix]
+    got = "".join(path.suffixes[-2:]) or "no extension"
+    raise CLIError(f"{path}: unknown file type ({got}); expected one of "
+                   f"{', '.join(sorted(SUFFIXES))}")
+
+
+def _first_line(msg) -> str:
+    text = str(msg).strip().splitlines()
+    return text[0] if text else type(msg).__name__
+
+
+def _list(names, limit=_MAX_LISTED) -> str:
+    names = list(names)
+    shown = ", ".join(repr(n) for n in names[:limit])
+    return shown + (f", … ({len(names)} in all)" if len(names) > limit else "")
+
+
+@dataclass
+class Table:
+    """Named columns read from one file (values converted on request).
+
+    Attributes
+    ----------
+    path : pathlib.Path
+    kind : {"csv", "parquet", "npz"}
+    names : list of str
+        Column names in file order (a 2-D ``.npz`` array ``X`` of m columns
+        gives ``X[0]`` … ``X[m-1]``).
+    groups : dict
+        ``.npz`` only: a 2-D array's name → its column names, so that
+        ``--phi X`` selects all of them.
+    """
+
+    path: Path
+    kind: str
+    names: list
+    _get: dict = field(repr=False)
+    groups: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------ selection
+    def expand(self, names, option: str) -> list:
+        """Column names for an option's list (a 2-D ``.npz`` array expands)."""
+        out = []
+        for name in names:
+            if name in self.groups:
+                out.extend(self.groups[name])
+            else:
+                out.append(name)
+        return out
+
+    def column(self, name: str, option: str) -> np.ndarray:
+        """Column ``name`` as float64, shape (N,); NaN marks a missing value.
+
+        Raises CLIError naming the column (and the option that asked for it)
+        if it is missing, ambiguous, non-numeric or holds an infinite value.
+        """
+        count = self.names.count(name)
+        if count == 0:
+            raise CLIError(f"{self.path}: no column {name!r} (asked for by {option}); "
+                           f"the columns are {_list(self.names)}")
+        if count > 1:
+            raise CLIError(f"{self.path}: column {name!r} (asked for by {option}) appears "
+                           f"{count} times; rename the duplicates")
+        values = self._get[name]()
+        x = _to_float(values, f"{self.path}: column {name!r}")
+        bad = np.isinf(x)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise CLIError(f"{self.path}: column {name!r}, row {i + 1}: infinite value (a number "
+                           "outside the float64 range, such as 1e400, or 'inf'); "
+                           f"{int(bad.sum())} such row(s)")
+        return x
+
+    def columns(self, names, option: str) -> np.ndarray:
+        """Several columns as one float64 array, shape (N, len(names))."""
+        cols = [self.column(n, option) for n in names]
+        lengths = {len(c) for c in cols}
+        if len(lengths) > 1:
+            desc = ", ".join(f"{n!r} ({len(c)})" for n, c in zip(names, cols))
+            raise CLIError(f"{self.path}: columns of different lengths: {desc}")
+        if not cols:
+            return np.empty((0, 0))
+        return np.ascontiguousarray(np.column_stack(cols), dtype=np.float64)
+
+
+def _to_float(values, where: str) -> np.ndarray:
+    """A pandas Series or ndarray → float64, rejecting non-numeric entries."""
+    import pandas as pd
+
+    s = values if isinstance(values, pd.Series) else pd.Series(values)
+    dt = s.dtype
+    if pd.api.types.is_bool_dtype(dt):
+        return s.to_numpy(dtype=np.float64, na_value=np.nan)
+    if pd.api.types.is_numeric_dtype(dt) and not pd.api.types.is_complex_dtype(dt):
+        return s.to_numpy(dtype=np.float64, na_value=np.nan)
+    if pd.api.types.is_datetime64_any_dtype(dt):
+        ns = s.to_numpy(dtype="datetime64[ns]").astype(np.int64).astype(np.float64)
+        ns[s.isna().to_numpy()] = np.nan
+        return ns * 1e-9  # seconds since the epoch
+    if pd.api.types.is_complex_dtype(dt):
+        raise CLIError(f"{where} holds complex numbers; adaptid identifies real parameters")
+    # object / string: parse, and name the first entry that is not a number
+    present = s.notna().to_numpy()
+    first = np.flatnonzero(present)
+    if first.size and isinstance(s.iloc[first[0]], (bytes, bytearray)):
+        for i in first:
+            try:
+                s.iloc[i].decode("utf-8")
+            except UnicodeDecodeError:
+                raise CLIError(f"{where}, row {i + 1}: not UTF-8 text ({bytes(s.iloc[i])[:20]!r}); "
+                               "save the file as UTF-8") from None
+        s = s.map(lambda b: b.decode("utf-8") if isinstance(b, (bytes, bytearray)) else b)
+    x = pd.to_numeric(s.astype("string"), errors="coerce").to_numpy(dtype=np.float64,
+                                                                    na_value=np.nan)
+    bad = present & np.isnan(x)
+    if bad.any():
+        i = int(np.argmax(bad))
+        text = str(s.iloc[i])
+        if len(text) > 30:
+            text = text[:30] + "…"
+        raise CLIError(f"{where}, row {i + 1}: {text!r} is not a number "
+                       f"({int(bad.sum())} non-numeric value(s) in the column)")
+    return x
+
+
+# ------------------------------------------------------------------ readers
+def read_table(path) -> Table:
+    """Read a CSV (``.csv``, ``.tsv``, ``.txt``, optionally ``.gz``), Parquet or ``.npz`` file."""
+    path = Path(os.fspath(path))
+    kind = _kind_of(path)
+    if not path.exists():
+        raise CLIError(f"{path}: no such file")
+    if path.is_dir():
+        raise CLIError(f"{path}: is a directory, not a data file")
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8192)
+    except OSError as err:
+        raise CLIError(f"{path}: cannot be read ({err.strerror or err})") from None
+    if not head:
+        raise CLIError(f"{path}: the file is empty")
+    reader = {"csv": _read_csv, "parquet": _read_parquet, "npz": _read_npz}[kind]
+    table = reader(path, head)
+    return table
+
+
+def _delimiter(path: Path, head: bytes) -> str:
+    if path.name.lower().endswith((".tsv", ".tsv.gz")):
+        return "\t"
+    first = head.split(b"\n", 1)[0]
+    counts = {d: first.count(d.encode()) for d in (",", ";", "\t")}
+    best = max(counts, key=counts.get)
+    return best if counts[best] > 0 else ","
+
+
+def _read_csv(path: Path, head: bytes) -> Table:
+    try:
+        import pyarrow as pa
+        import pyarrow.csv as pacsv
+    except ImportError:  # pragma: no cover - the cli extra installs it
+        raise CLIError("reading CSV needs pyarrow: pip install 'adaptid[cli]'") from None
+    gz = path.name.lower().endswith(".gz")
+    if gz:
+        try:
+            with gzip.open(path, "rb") as fh:
+                head = fh.read(8192)
+        except (OSError, EOFError) as err:
+            raise CLIError(f"{path}: not a readable gzip file ({_first_line(err)})") from None
+        if not head:
+            raise CLIError(f"{path}: the file is empty")
+    if b"\x00" in head:
+        raise CLIError(f"{path}: binary data (NUL bytes), not CSV text")
+    delim = _delimiter(path, head)
+    try:
+        table = pacsv.read_csv(path, parse_options=pacsv.ParseOptions(delimiter=delim))
+    except UnicodeDecodeError as err:
+        raise CLIError(f"{path}: the header is not UTF-8 text ({err.reason} at byte "
+                       f"{err.start}); save the file as UTF-8") from None
+    except pa.ArrowInvalid as err:
+        msg = _first_line(err)
+        if "Empty CSV file" in msg:
+            raise CLIError(f"{path}: the file is empty") from None
+        if "Expected" in msg and "columns" in msg:
+            where = _ragged_row(path, delim, gz)
+            raise CLIError(f"{path}: ragged rows: {where or msg}") from None
+        if "UTF8" in msg or "UTF-8" in msg:
+            raise CLIError(f"{path}: not UTF-8 text ({msg}); save the file as UTF-8") from None
+        raise CLIError(f"{path}: cannot be read as CSV ({msg})") from None
+    except (OSError, pa.ArrowException) as err:
+        raise CLIError(f"{path}: cannot be read as CSV ({_first_line(err)})") from None
+    return _from_arrow(path, "csv", table)
+
+
+def _ragged_row(path: Path, delim: str, gz: bool):
+    """Describe the first data row whose field count differs from the header's."""
+    opener = gzip.open if gz else open
+    try:
+        with opener(path, "rt", newline="", encoding="utf-8", errors="replace") as fh:
+            rows = csv.reader(fh, delimiter=delim)
+            header = next(rows, None)
+            if header is None:
+                return None
+            k = 0
+            for row in rows:
+                if not row:
+                    continue
+                k += 1
+                if len(row) != len(header):
+                    return (f"row {k} (line {rows.line_num}) has {len(row)} field(s), the header "
+                            f"has {len(header)}")
+    except (OSError, csv.Error, EOFError):
+        return None
+    return None
+
+
+def _read_parquet(path: Path, head: bytes) -> Table:
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:  # pragma: no cover - the cli extra installs it
+        raise CLIError("reading Parquet needs pyarrow: pip install 'adaptid[cli]'") from None
+    if not head.startswith(b"PAR1"):
+        raise CLIError(f"{path}: not a Parquet file (no PAR1 magic bytes)")
+    try:
+        table = pq.read_table(path)
+    except (OSError, pa.ArrowException, ValueError) as err:
+        raise CLIError(f"{path}: cannot be read as Parquet ({_first_line(err)})") from None
+    return _from_arrow(path, "parquet", table)
+
+
+def _from_arrow(path: Path, kind: str, table) -> Table:
+    names = [str(n) for n in table.column_names]
+    if not names:
+        raise CLIError(f"{path}: no columns")
+    if table.num_rows == 0:
+        raise CLIError(f"{path}: no data rows (only a header with columns {_list(names)})")
+    get = {}
+    for i, name in enumerate(names):
+        get.setdefault(name, (lambda i=i: table.column(i).to_pandas()))
+    return Table(path=path, kind=kind, names=names, _get=get)
+
+
+def _read_npz(path: Path, head: bytes) -> Table:
+    if not head.startswith(b"PK"):
+        raise CLIError(f"{path}: not a .npz file (not a zip archive)")
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+    except ValueError as err:  # object arrays are refused without pickle
+        raise CLIError(f"{path}: refused ({_first_line(err)})") from None
+    except (OSError, zipfile.BadZipFile, EOFError, KeyError) as err:
+        raise CLIError(f"{path}: not a readable .npz file ({_first_line(err)})") from None
+    names, get, groups = [], {}, {}
+    for key, arr in arrays.items():
+        if arr.ndim == 1:
+            names.append(key)
+            get[key] = (lambda a=arr: a)
+        elif arr.ndim == 2:
+            cols = [f"{key}[{j}]" for j in range(arr.shape[1])]
+            groups[key] = cols
+            for j, c in enumerate(cols):
+                names.append(c)
+                get[c] = (lambda a=arr, j=j: a[:, j])
+    if not names:
+        raise CLIError(f"{path}: no 1-D or 2-D arrays (columns) in the archive")
+    if max(len(get[n]()) for n in names) == 0:
+        raise CLIError(f"{path}: no data rows (all arrays are empty)")
+    return Table(path=path, kind="npz", names=names, _get=get, groups=groups)

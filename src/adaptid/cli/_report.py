@@ -1,0 +1,301 @@
+"""The report folder: PNG figures, ``index.html`` and ``estimates.csv``.
+
+Figures are drawn on ``matplotlib.figure.Figure`` with the Agg canvas (no
+pyplot, no GUI backend, no global state). The HTML page is self-contained:
+inline CSS, figures linked by relative paths, no scripts and no external
+resources (a data: URI stands in for the favicon, so a browser requests
+nothing but the page and its figures).
+"""
+
+from __future__ import annotations
+
+import csv
+import html
+import math
+import os
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from ._errors import CLIError
+
+__all__ = ["Report", "tracks_figure", "errors_figure", "cusum_figure"]
+
+_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
+
+_CSS = """
+body{font-family:-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0;
+color:#1d2330;background:#f6f7f9}
+header{background:#1d2b45;color:#fff;padding:18px 32px}
+header h1{margin:0;font-size:22px}header p{margin:4px 0 0;color:#c8d1e0;font-size:13px}
+main{max-width:1180px;margin:0 auto;padding:8px 32px 40px}
+section{background:#fff;border:1px solid #dde2ea;border-radius:6px;margin:18px 0;padding:14px 20px}
+h2{font-size:17px;margin:4px 0 10px;color:#1d2b45}
+table{border-collapse:collapse;font-size:13px;margin:6px 0}
+th,td{padding:4px 10px;border-bottom:1px solid #e6e9ef;text-align:right;white-space:nowrap}
+th{background:#eef1f6;color:#1d2b45}td.l,th.l{text-align:left}
+figure{margin:10px 0}figure img{max-width:100%;height:auto;border:1px solid #e6e9ef}
+figcaption{font-size:13px;color:#4a5468;margin-top:4px}
+p.note{font-size:13px;color:#4a5468}code{background:#eef1f6;padding:1px 4px;border-radius:3px}
+ul.warn{color:#8a4b00;font-size:13px}
+"""
+
+
+def _require_matplotlib():
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:  # pragma: no cover - the cli extra installs it
+        raise CLIError("the report needs matplotlib: pip install 'adaptid[cli]'") from None
+    return Figure, FigureCanvasAgg
+
+
+def _fmt(v, digits=5) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    if math.isnan(f):
+        return "—"
+    return f"{f:.{digits}g}"
+
+
+class Report:
+    """Collects figures, tables and notes; :meth:`write` makes the folder."""
+
+    def __init__(self, out_dir, title: str, subtitle: str = ""):
+        self.out = Path(os.fspath(out_dir))
+        try:
+            self.out.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise CLIError(f"--out {self.out}: cannot create the report folder "
+                           f"({err.strerror or err})") from None
+        if not os.access(self.out, os.W_OK):
+            raise CLIError(f"--out {self.out}: the folder is not writable")
+        self.title = title
+        self.subtitle = subtitle
+        self._parts = []
+        self.files = []
+
+    # ----------------------------------------------------------- contents
+    def section(self, heading: str):
+        self._parts.append(f"<section><h2>{html.escape(heading)}</h2>")
+        return self
+
+    def end(self):
+        self._parts.append("</section>")
+        return self
+
+    def note(self, text: str, *, raw=False):
+        self._parts.append(f'<p class="note">{text if raw else html.escape(text)}</p>')
+        return self
+
+    def warnings(self, items):
+        if items:
+            lis = "".join(f"<li>{html.escape(w)}</li>" for w in items)
+            self._parts.append(f'<ul class="warn">{lis}</ul>')
+        return self
+
+    def table(self, columns, rows, *, left=1):
+        head = "".join(f'<th class="{"l" if i < left else ""}">{html.escape(str(c))}</th>'
+                       for i, c in enumerate(columns))
+        body = []
+        for row in rows:
+            cells = "".join(
+                f'<td class="{"l" if i < left else ""}">'
+                f'{html.escape(v if isinstance(v, str) else _fmt(v))}</td>'
+                for i, v in enumerate(row))
+            body.append(f"<tr>{cells}</tr>")
+        self._parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>")
+        return self
+
+    def figure(self, filename: str, fig, caption: str):
+        """Save ``fig`` (a matplotlib Figure) as ``filename`` and link it."""
+        _, Canvas = _require_matplotlib()
+        Canvas(fig)
+        path = self.out / filename
+        try:
+            fig.savefig(path, dpi=100, format="png")
+        except OSError as err:
+            raise CLIError(f"--out {self.out}: cannot write {filename} ({err.strerror or err})") from None
+        w, h = (fig.get_size_inches() * 100).round().astype(int)
+        self.files.append(filename)
+        self._parts.append(
+            f'<figure><img src="{html.escape(filename)}" width="{w}" height="{h}" '
+            f'alt="{html.escape(caption)}"><figcaption>{html.escape(caption)}</figcaption></figure>')
+        return self
+
+    # -------------------------------------------------------------- output
+    def write(self, estimates: list) -> Path:
+        """Write ``estimates.csv`` (rows: name, method, estimate, stderr, truth) and ``index.html``."""
+        from adaptid import __version__
+
+        csv_path = self.out / "estimates.csv"
+        try:
+            with open(csv_path, "w", newline="", encoding="utf-8") as fh:
+                w = csv.writer(fh)
+                w.writerow(["name", "method", "estimate", "stderr", "truth"])
+                for r in estimates:
+                    w.writerow([r["name"], r["method"], _num(r.get("estimate")),
+                                _num(r.get("stderr")), _num(r.get("truth"))])
+        except OSError as err:
+            raise CLIError(f"--out {self.out}: cannot write estimates.csv ({err.strerror or err})") from None
+        self.files.append("estimates.csv")
+        stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+        doc = (
+            "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            "<link rel=\"icon\" href=\"data:,\">"
+            f"<title>{html.escape(self.title)}</title><style>{_CSS}</style></head><body>"
+            f"<header><h1>{html.escape(self.title)}</h1><p>{html.escape(self.subtitle)}</p></header><main>"
+            + "".join(self._parts)
+            + "<section><h2>Files</h2><p class=\"note\">Estimates as CSV: "
+              "<a href=\"estimates.csv\">estimates.csv</a> (name, method, estimate, stderr, truth).</p>"
+            + f"<p class=\"note\">Written by adaptid {html.escape(__version__)} on {stamp}.</p></section>"
+            + "</main></body></html>\n")
+        index = self.out / "index.html"
+        try:
+            index.write_text(doc, encoding="utf-8")
+        except OSError as err:
+            raise CLIError(f"--out {self.out}: cannot write index.html ({err.strerror or err})") from None
+        return index
+
+
+def _num(v):
+    if v is None:
+        return ""
+    f = float(v)
+    return "" if math.isnan(f) else repr(f)
+
+
+# ------------------------------------------------------------------ figures
+def _decimate(n: int, target: int = 3000) -> slice:
+    return slice(None, None, max(1, n // target))
+
+
+def _robust_limits(arrays, truth=None, skip_frac=0.05):
+    """y-limits from the 1–99 % range of the curves (after the first transient).
+
+    With a truth, the limits never reach beyond the truth's range ± 50 % of its
+    magnitude, so that an estimator losing identifiability for a while does
+    not flatten everybody else's curve.
+    """
+    lo = hi = None
+    for a in arrays:
+        a = np.asarray(a, dtype=float)
+        a = a[int(len(a) * skip_frac):]
+        a = a[np.isfinite(a)]
+        if a.size:
+            p1, p99 = np.percentile(a, [1, 99])
+            lo = p1 if lo is None else min(lo, p1)
+            hi = p99 if hi is None else max(hi, p99)
+    if truth is not None:
+        t = np.asarray(truth, dtype=float)
+        t = t[np.isfinite(t)]
+        if t.size:
+            tmin, tmax = float(t.min()), float(t.max())
+            mag = max(abs(tmin), abs(tmax)) or 1.0
+            lo = tmin if lo is None else max(min(lo, tmin), tmin - 0.5 * mag)
+            hi = tmax if hi is None else min(max(hi, tmax), tmax + 0.5 * mag)
+    if lo is None:
+        return None
+    span = hi - lo
+    if not span > 0:
+        span = abs(hi) * 0.1 or 1.0
+    return lo - 0.1 * span, hi + 0.1 * span
+
+
+def tracks_figure(panels, *, xlabel="sample", events=()):
+    """Parameter tracks: one panel per parameter.
+
+    ``panels``: list of dicts with ``name``, ``series`` (list of dicts with
+    ``label``, ``x`` (N,), ``y`` (N,), optional ``xb``, ``lo``, ``hi`` (K,)
+    for the band) and optional ``truth`` = (x, y).
+    """
+    Figure, _ = _require_matplotlib()
+    n = len(panels)
+    ncols = 2 if n > 1 else 1
+    nrows = math.ceil(n / ncols)
+    fig = Figure(figsize=(11, 2.6 * nrows + 0.6), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True)
+    for k, ax in enumerate(axes.flat):
+        if k >= n:
+            ax.set_visible(False)
+            continue
+        p = panels[k]
+        arrays = []
+        for j, s in enumerate(p["series"]):
+            c = _COLORS[j % len(_COLORS)]
+            sl = _decimate(len(s["x"]))
+            if s.get("xb") is not None:
+                ax.fill_between(s["xb"], s["lo"], s["hi"], color=c, alpha=0.18, lw=0,
+                                label=None)
+            ax.plot(s["x"][sl], s["y"][sl], color=c, lw=1.1, label=s["label"])
+            arrays.append(s["y"])
+        truth = p.get("truth")
+        if truth is not None:
+            sl = _decimate(len(truth[0]))
+            ax.plot(truth[0][sl], truth[1][sl], "k--", lw=1.2, label="truth")
+        for ev in events:
+            ax.axvline(ev, color="#888", lw=0.8, ls=":")
+        lim = _robust_limits(arrays, None if truth is None else truth[1])
+        if lim is not None:
+            ax.set_ylim(*lim)
+        ax.set_title(p["name"], fontsize=10, loc="left")
+        ax.grid(alpha=0.3)
+        if k >= n - ncols:
+            ax.set_xlabel(xlabel)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside upper center", ncol=len(labels), fontsize=9,
+                   frameon=False)
+    return fig
+
+
+def errors_figure(rows, *, xlabel="sample"):
+    """Prediction errors: ``rows`` = list of (title, [(label, x, e), ...])."""
+    Figure, _ = _require_matplotlib()
+    fig = Figure(figsize=(11, 2.4 * len(rows) + 0.4), layout="constrained")
+    axes = fig.subplots(len(rows), 1, squeeze=False)[:, 0]
+    for ax, (title, series) in zip(axes, rows):
+        arrays = []
+        for j, (label, x, e) in enumerate(series):
+            sl = _decimate(len(x))
+            ax.plot(x[sl], e[sl], color=_COLORS[j % len(_COLORS)], lw=0.7, alpha=0.85, label=label)
+            arrays.append(e)
+        lim = _robust_limits(arrays)
+        if lim is not None:
+            lo, hi = lim
+            m = max(abs(lo), abs(hi))
+            ax.set_ylim(-m, m)
+        ax.set_title(title, fontsize=10, loc="left")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="upper right", ncol=len(series))
+        ax.set_xlabel(xlabel)
+    return fig
+
+
+def cusum_figure(items, *, xlabel="sample"):
+    """CUSUM panels: ``items`` = list of (title, x (m,), CusumResult)."""
+    Figure, _ = _require_matplotlib()
+    fig = Figure(figsize=(11, 2.6 * len(items) + 0.4), layout="constrained")
+    axes = fig.subplots(len(items), 1, squeeze=False)[:, 0]
+    for ax, (title, x, res) in zip(axes, items):
+        sl = _decimate(len(x))
+        ax.plot(x[sl], res.statistic[sl], color=_COLORS[0], lw=1.1, label="CUSUM of recursive residuals")
+        ax.plot(x[sl], res.upper[sl], "k--", lw=1, label=f"{100 * (1 - res.alpha):g} % bounds")
+        ax.plot(x[sl], res.lower[sl], "k--", lw=1)
+        if res.first_crossing is not None:
+            ax.axvline(x[res.first_crossing], color=_COLORS[1], lw=0.9, ls=":",
+                       label="first crossing")
+        verdict = "parameters not constant (bounds crossed)" if res.crossed else "no evidence of change"
+        ax.set_title(f"{title}: {verdict}", fontsize=10, loc="left")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="upper left")
+        ax.set_xlabel(xlabel)
+    return fig
