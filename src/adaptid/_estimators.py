@@ -29,7 +29,7 @@ from ._validation import (
 
 __all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS"]
 
-_STATE_FORMAT = 1
+_STATE_FORMAT = 2
 _NAN_POLICIES = ("raise", "skip")
 
 
@@ -105,7 +105,7 @@ class _RecursiveEstimator:
     def _fill_initial(self, S):
         n, p = self.n_params, self.n_outputs
         S[: n * p] = self.theta0.ravel()
-        S[n * p: n * p + n * n] = self._U0.ravel()
+        S[n * p: n * p + n * n] = self._U0.T.ravel()  # U by columns (see _kernels._ud)
         S[n * p + n * n: n * p + n * n + n] = self._D0
 
     def reset(self):
@@ -125,7 +125,7 @@ class _RecursiveEstimator:
 
     def _ud_views(self, S):
         n, p = self.n_params, self.n_outputs
-        U = S[..., n * p: n * p + n * n].reshape(S.shape[:-1] + (n, n))
+        U = np.swapaxes(S[..., n * p: n * p + n * n].reshape(S.shape[:-1] + (n, n)), -1, -2)
         D = S[..., n * p + n * n: n * p + n * n + n]
         return U, D
 
@@ -162,7 +162,7 @@ class _RecursiveEstimator:
     def _y(self, y):
         p = self.n_outputs
         if self._single:
-            if type(y) is float:
+            if type(y) is float or type(y) is np.float64:
                 self._ybuf[0] = y
                 return self._ybuf
             arr = as_float_array(y, "y", ndim=(0, 1), finite=False)
@@ -185,7 +185,7 @@ class _RecursiveEstimator:
                               "<a non-finite value>")
         self.n_skipped += 1
 
-    def _run_arrays(self, Phi, y, weights, batched):
+    def _run_arrays(self, Phi, y, weights, batched, precheck=True):
         """Validate Phi, y, weights of run / run_batched; returns (Phi, Y, w)."""
         n, p = self.n_params, self.n_outputs
         lead = 2 if batched else 1
@@ -206,7 +206,7 @@ class _RecursiveEstimator:
         if Y.shape != shape_N + (p,):
             want = shape_N if self._single else shape_N + (p,)
             raise param_error("y", f"of shape {want} to match Phi", f"<shape {Y.shape[:lead] if self._single else Y.shape}>")
-        if self.nan_policy == "raise":
+        if precheck and self.nan_policy == "raise":
             for name, arr in (("Phi", Phi), ("y", Y)):
                 if not np.isfinite(arr).all():
                     idx = np.argwhere(~np.isfinite(arr))[0]
@@ -235,6 +235,21 @@ class _RecursiveEstimator:
             raise param_error(name, f"in {lo}{low}, {high if high is not None else 'inf'}]",
                               "<values outside that range>")
         return arr
+
+    def _raise_if_skipped(self, skipped, Phi, Y, backup):
+        """nan_policy='raise' without a pre-pass over the data: the kernel skipped
+        (and flagged) the non-finite samples; restore the state and raise."""
+        if self.nan_policy != "raise" or not skipped.any():
+            return
+        if backup is not None:
+            self._S = backup
+        row = tuple(int(i) for i in np.argwhere(skipped)[0])
+        name = "Phi" if not np.isfinite(Phi[row]).all() else "y"
+        raise param_error(name, "finite (no NaN or inf) with nan_policy='raise'",
+                          f"<a non-finite value at sample {row if len(row) > 1 else row[0]}>")
+
+    def _backup(self):
+        return self._S.copy() if self.nan_policy == "raise" else None
 
     def _prepare_batch(self, B):
         if self._batch is None:
@@ -673,9 +688,10 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
             Bit-for-bit the result of N calls of :meth:`update`.
         """
         self._check_single("run")
-        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
         lam = self._lam_run(forgetting, Phi.shape[:1])
         Th, E, skipped = self._alloc(Phi.shape[:1], store)
+        backup = self._backup()
         lk = None
         if self._fast:
             bad = self._kern.rls_run(self._S, Phi, Y, lam, w, Th, E, skipped,
@@ -685,6 +701,7 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
             bad = self._kern.rls_strategy_run(self._S, Phi, Y, lam, w, Th, E, skipped, lk,
                                               self._mode, self._fp, self._pmax,
                                               self.windup_threshold)
+        self._raise_if_skipped(skipped, Phi, Y, backup)
         self._count(skipped)
         if bad >= 0:
             self._warn_nonpositive(bad)
@@ -717,7 +734,7 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
             ``P`` carry the leading axis B; each stream started from this
             estimator's state (or continues it, if already batched).
         """
-        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True)
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True, precheck=False)
         shape_N = Phi.shape[:2]
         lam = self._lam_run(forgetting, shape_N)
         S = self._prepare_batch(shape_N[0])
@@ -732,6 +749,7 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
             self._kern.rls_strategy_run_batched(S, Phi, Y, lam, w, Th, E, skipped, lk,
                                                 self._mode, self._fp, self._pmax,
                                                 self.windup_threshold, bad)
+        self._raise_if_skipped(skipped, Phi, Y, None)  # S is a copy: nothing to restore
         self._S, self._batch = S, shape_N[0]
         self._count(skipped)
         if (bad >= 0).any():
@@ -808,7 +826,7 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
         n, p, M = self.n_params, self.n_outputs, self.window
         o = n * p + n * n + n + 3 + M * (n + p + 2)
         S[o: o + n * p] = self.theta0.ravel()
-        S[o + n * p: o + n * p + n * n] = self._U0.ravel()
+        S[o + n * p: o + n * p + n * n] = self._U0.T.ravel()
         S[o + n * p + n * n:] = self._D0
 
     def update(self, phi, y, *, weight=1.0, forgetting=None):
@@ -840,11 +858,13 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
     def run(self, Phi, y, *, weights=None, forgetting=None, store=True):
         """Process N samples in one compiled loop. See :meth:`RLS.run`."""
         self._check_single("run")
-        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
         lam = self._lam_run(forgetting, Phi.shape[:1])
         Th, E, skipped = self._alloc(Phi.shape[:1], store)
+        backup = self._backup()
         nreb = self._kern.window_run(self._S, Phi, Y, lam, w, Th, E, skipped,
                                      self.window, _config.DOWNDATE_RTOL)
+        self._raise_if_skipped(skipped, Phi, Y, backup)
         self._count(skipped)
         if nreb:
             self._warn_rebuild(nreb)
@@ -862,7 +882,7 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
 
     def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
         """B independent streams in one compiled, parallel call. See :meth:`RLS.run_batched`."""
-        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True)
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True, precheck=False)
         shape_N = Phi.shape[:2]
         lam = self._lam_run(forgetting, shape_N)
         S = self._prepare_batch(shape_N[0])
@@ -870,6 +890,7 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
         reb = np.zeros(shape_N[0], dtype=np.int64)
         self._kern.window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, self.window,
                                       _config.DOWNDATE_RTOL, reb)
+        self._raise_if_skipped(skipped, Phi, Y, None)
         self._S, self._batch = S, shape_N[0]
         self._count(skipped)
         if reb.sum():

@@ -1,11 +1,11 @@
 r"""Estimator state: dict round trip and safe, versioned state files.
 
-File format (version 1)
+File format (version 2)
 -----------------------
 A NumPy ``.npz`` archive read with ``allow_pickle=False`` holding
 
 * ``header`` — UTF-8 JSON as a uint8 array: ``{"magic": "adaptid-state",
-  "format": 1, "estimator": <class name>, "n_params", "n_outputs",
+  "format": 2, "estimator": <class name>, "n_params", "n_outputs",
   "single_output", "options", "batch", "n_updates", "n_skipped",
   "adaptid_version", "checksum"}``;
 * ``theta0``, ``P0``, ``state`` and, for KalmanRLS, ``process_cov`` — float64.
@@ -34,7 +34,7 @@ import numpy as np
 
 from ._exceptions import StateFileError
 
-FORMAT = 1
+FORMAT = 2  # 2: U stored by columns in the state vector (1: by rows; not read)
 _MAGIC = "adaptid-state"
 _ARRAYS = ("theta0", "P0", "state", "process_cov")
 

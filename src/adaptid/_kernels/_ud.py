@@ -18,7 +18,7 @@ State layout
 Each estimator's whole state is one flat float64 vector ``S`` (``(B, L)``
 when batched), so a call passes few arguments:
 
-``[ theta (n·p) | U (n·n) | D (n) ]`` for RLS and KalmanRLS, followed for
+``[ theta (n·p) | U (n·n, by columns) | D (n) ]`` for RLS and KalmanRLS, followed for
 the sliding window by ``[ L, pos, count | Φ buffer (M·n) | Y buffer (M·p) |
 weights (M) | log-λ sums (M) | theta0 (n·p) | U0 (n·n) | D0 (n) ]``.
 
@@ -137,7 +137,7 @@ def _store(Th, k, theta, NP, p):
 def _views(S, NP, p):
     theta = S[0:NP * p].reshape((NP, p))
     o = NP * p
-    U = S[o:o + NP * NP].reshape((NP, NP))
+    U = S[o:o + NP * NP].reshape((NP, NP)).T  # stored by columns: the inner loops run down them
     o += NP * NP
     D = S[o:o + NP]
     return theta, U, D
@@ -249,9 +249,14 @@ def rls_run(S, Phi, Y, lam, w, Th, E, skipped, dthr):
 def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, dthr, bad):
     """B independent RLS streams in parallel; ``bad[b]`` as in :func:`rls_run`."""
     NP = Phi.shape[2]  # @np
-    for s in prange(Phi.shape[0]):
-        bad[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                             skipped[s], dthr, NP, Y.shape[2])
+    if Y.shape[2] == 1:  # p known at compile time: the common case unrolls
+        for s in prange(Phi.shape[0]):
+            bad[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
+                                 skipped[s], dthr, NP, 1)
+    else:
+        for s in prange(Phi.shape[0]):
+            bad[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
+                                 skipped[s], dthr, NP, Y.shape[2])
 
 
 @njit(**NJIT_PARALLEL)
@@ -261,13 +266,18 @@ def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, dthr, ba
     Parallel over segments; segment g is bit for bit :func:`rls_run` from S0.
     """
     NP = Phi.shape[1]  # @np
+    p = Y.shape[1]
     for g in prange(offsets.shape[0] - 1):
         a = offsets[g]
         z = offsets[g + 1]
         S = Sout[g]
         S[:] = S0
-        bad[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                             skipped[a:z], dthr, NP, Y.shape[1])
+        if p == 1:
+            bad[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                                 skipped[a:z], dthr, NP, 1)
+        else:
+            bad[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                                 skipped[a:z], dthr, NP, p)
 
 
 # --------------------------------------------------------------------------
@@ -625,7 +635,7 @@ def _window_views(S, NP, p, M):
     o += M
     theta0 = S[o:o + NP * p].reshape((NP, p))
     o += NP * p
-    U0 = S[o:o + NP * NP].reshape((NP, NP))
+    U0 = S[o:o + NP * NP].reshape((NP, NP)).T
     o += NP * NP
     D0 = S[o:o + NP]
     return theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0
