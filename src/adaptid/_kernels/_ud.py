@@ -320,8 +320,12 @@ def _form_P(U, D, P, NP):
             P[j, i] = s
 
 
-@njit(**NJIT_INLINE)
-def _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, dthr, NP, p):
+@njit(**NJIT)
+def _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, dthr):
+    # Not inlined: compiled once and shared by the four entry points (the
+    # per-sample work of a strategy dwarfs one call per stream).
+    NP = Phi.shape[1]  # @np
+    p = Y.shape[1]
     theta, U, D = _views(S, NP, p)
     f = np.empty(NP)
     v = np.empty(NP)
@@ -453,8 +457,7 @@ def rls_strategy_update(S, phi, y, lam, w, e, mode, fp, pmax, dthr, lk):
     w1 = np.full(1, w)
     Th = np.empty((0, NP, p))
     skipped = np.zeros(1, dtype=np.bool_)
-    bad = _rls_strategy_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, mode, fp, pmax,
-                               dthr, NP, p)
+    bad = _rls_strategy_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, mode, fp, pmax, dthr)
     if skipped[0]:
         return SKIPPED
     if bad >= 0:
@@ -465,31 +468,26 @@ def rls_strategy_update(S, phi, y, lam, w, e, mode, fp, pmax, dthr, lk):
 @njit(**NJIT)
 def rls_strategy_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, dthr):
     """N RLS steps with a forgetting strategy; returns as :func:`rls_run`."""
-    NP = Phi.shape[1]  # @np
-    return _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax,
-                                dthr, NP, Y.shape[1])
+    return _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, dthr)
 
 
 @njit(**NJIT_PARALLEL)
 def rls_strategy_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, dthr, bad):
-    NP = Phi.shape[2]  # @np
     for s in prange(Phi.shape[0]):
         bad[s] = _rls_strategy_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                      skipped[s], Lk[s], mode, fp, pmax, dthr, NP, Y.shape[2])
+                                      skipped[s], Lk[s], mode, fp, pmax, dthr)
 
 
 @njit(**NJIT_PARALLEL)
 def rls_strategy_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk,
                               mode, fp, pmax, dthr, bad):
-    NP = Phi.shape[1]  # @np
     for g in prange(offsets.shape[0] - 1):
         a = offsets[g]
         z = offsets[g + 1]
         S = Sout[g]
         S[:] = S0
         bad[g] = _rls_strategy_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                                      skipped[a:z], Lk[a:z], mode, fp, pmax, dthr, NP,
-                                      Y.shape[1])
+                                      skipped[a:z], Lk[a:z], mode, fp, pmax, dthr)
 
 
 # --------------------------------------------------------------------------
@@ -684,7 +682,7 @@ def window_update(S, phi, y, lam, w, e, M, rtol, dthr):
     w1 = np.full(1, w)
     Th = np.empty((0, NP, p))
     skipped = np.zeros(1, dtype=np.bool_)
-    if p == 1:
+    if p == 1:  # the same code as window_run's p = 1 path (bit for bit)
         reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, M, rtol, NP, 1)
     else:
         reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, M, rtol, NP, p)
