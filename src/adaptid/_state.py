@@ -27,7 +27,6 @@ import io
 import json
 import os
 import tempfile
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -138,7 +137,8 @@ def load_state(path):
         raise
     except ValueError as err:  # includes "Object arrays cannot be loaded when allow_pickle=False"
         raise StateFileError(f"{path}: refused ({err})") from None
-    except (OSError, zipfile.BadZipFile, EOFError, KeyError) as err:
+    except Exception as err:  # noqa: BLE001 - a damaged zip raises anything (NotImplementedError,
+        # RuntimeError "encrypted", zlib.error, ...): all of it means a corrupted file
         raise StateFileError(f"{path}: truncated or corrupted state file ({type(err).__name__}: {err})") from None
     try:
         if raw.dtype != np.uint8 or raw.ndim != 1:

@@ -148,6 +148,11 @@ def fit(
                                                  rich_help_panel="Model")] = None,
     cutoff: Annotated[Optional[float], typer.Option("--cutoff", help="--dc-motor derivative filter "
                                                     "cut-off (Hz).", rich_help_panel="Model")] = None,
+    speed_kind: Annotated[Optional[str], typer.Option("--speed-kind", metavar="sampled|interval_mean",
+                                                      help="--dc-motor: speed sampled at the instants "
+                                                      "(default) or the mean over the last interval "
+                                                      "(differenced encoder counts).",
+                                                      rich_help_panel="Model")] = None,
     method: Annotated[Optional[str], typer.Option("--method", "-m", metavar="rls|window|kalman|batch",
                                                   help="Estimator (default rls).",
                                                   rich_help_panel="Method")] = None,
@@ -188,7 +193,8 @@ def fit(
             y=y, phi=split_names(phi, "--phi"), u=split_names(u, "--u"),
             arx=parse_orders(arx, "--arx", ("na", "nb", "nk")),
             fir=parse_orders(fir_, "--fir", ("nb", "nk")), dc_motor=dc_motor, time=time,
-            voltage=voltage, current=current, speed=speed, cutoff=cutoff)
+            voltage=voltage, current=current, speed=speed, cutoff=cutoff,
+            speed_kind=None if speed_kind is None else speed_kind.strip().lower())
         if method is not None:
             method = method.strip().lower()
         spec = MethodSpec(method=method, forgetting=forgetting, window=window,

@@ -56,6 +56,7 @@ class Structure:
     current: str | None = None
     speed: str | None = None
     cutoff: float | None = None
+    speed_kind: str | None = None
 
     @property
     def kind(self) -> str:
@@ -84,9 +85,12 @@ class Structure:
                                    "--speed, --time to name its columns)")
         else:
             for opt, val in (("--voltage", self.voltage), ("--current", self.current),
-                             ("--speed", self.speed), ("--cutoff", self.cutoff)):
+                             ("--speed", self.speed), ("--cutoff", self.cutoff),
+                             ("--speed-kind", self.speed_kind)):
                 if val is not None:
                     raise CLIError(f"{opt} applies to --dc-motor only")
+        if self.speed_kind is not None and self.speed_kind not in ("sampled", "interval_mean"):
+            raise CLIError(f"--speed-kind must be 'sampled' or 'interval_mean', got {self.speed_kind!r}")
         if self.cutoff is not None and not self.cutoff > 0:
             raise CLIError(f"--cutoff must be a frequency > 0 (Hz), got {self.cutoff:g}")
 
@@ -175,7 +179,8 @@ def build_problem(table: Table, s: Structure, nan_policy: str) -> Problem:
     nan = _nan_check(table, {names[r]: c for r, c in cols.items()}, nan_policy)
     try:
         regs = models.dc_motor_regressors(cols["time"], cols["voltage"], cols["current"],
-                                          cols["speed"], cutoff=s.cutoff)
+                                          cols["speed"], cutoff=s.cutoff,
+                                          speed_kind=s.speed_kind or "sampled")
     except ValueError as e:
         raise CLIError(f"--dc-motor: {e}") from None
     eqs = []
