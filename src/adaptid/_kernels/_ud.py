@@ -134,6 +134,14 @@ def _store(Th, k, theta, NP, p):
 
 
 @njit(**NJIT_INLINE)
+def _one_sample(phi, y, e, lam, w, NP):
+    """One sample as the arrays of a length-1 run (update = run, bit for bit)."""
+    p = y.shape[0]
+    return (phi.reshape((1, NP)), y.reshape((1, p)), e.reshape((1, p)), np.full(1, lam),
+            np.full(1, w), np.empty((0, NP, p)), np.zeros(1, dtype=np.bool_))
+
+
+@njit(**NJIT_INLINE)
 def _views(S, NP, p):
     theta = S[0:NP * p].reshape((NP, p))
     o = NP * p
@@ -217,13 +225,7 @@ def rls_update(S, phi, y, lam, w, e, dthr):
     """
     NP = phi.shape[0]  # @np
     p = y.shape[0]
-    Phi = phi.reshape((1, NP))
-    Y = y.reshape((1, p))
-    E = e.reshape((1, p))
-    lam1 = np.full(1, lam)
-    w1 = np.full(1, w)
-    Th = np.empty((0, NP, p))
-    skipped = np.zeros(1, dtype=np.bool_)
+    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
     if p == 1:
         bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, dthr, NP, 1)
     else:
@@ -450,13 +452,7 @@ def rls_strategy_update(S, phi, y, lam, w, e, mode, fp, pmax, dthr, lk):
     """One step of :func:`rls_strategy_run` (the same compiled code); λₖ → lk[0]."""
     NP = phi.shape[0]  # @np
     p = y.shape[0]
-    Phi = phi.reshape((1, NP))
-    Y = y.reshape((1, p))
-    E = e.reshape((1, p))
-    lam1 = np.full(1, lam)
-    w1 = np.full(1, w)
-    Th = np.empty((0, NP, p))
-    skipped = np.zeros(1, dtype=np.bool_)
+    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
     bad = _rls_strategy_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, mode, fp, pmax, dthr)
     if skipped[0]:
         return SKIPPED
@@ -675,13 +671,7 @@ def window_update(S, phi, y, lam, w, e, M, rtol, dthr):
     """One TLSM step through the same compiled code as :func:`window_run`."""
     NP = phi.shape[0]  # @np
     p = y.shape[0]
-    Phi = phi.reshape((1, NP))
-    Y = y.reshape((1, p))
-    E = e.reshape((1, p))
-    lam1 = np.full(1, lam)
-    w1 = np.full(1, w)
-    Th = np.empty((0, NP, p))
-    skipped = np.zeros(1, dtype=np.bool_)
+    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
     if p == 1:  # the same code as window_run's p = 1 path (bit for bit)
         reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, M, rtol, NP, 1)
     else:
