@@ -25,6 +25,7 @@ from ._validation import (
     check_scalar,
     check_spd,
     param_error,
+    symmetrised,
 )
 
 __all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS"]
@@ -50,8 +51,9 @@ def _ud_from_P(P: np.ndarray):
 
 
 def _P_from_ud(U, D):
-    P = U @ (D[..., :, None] * np.swapaxes(U, -1, -2))
-    return 0.5 * (P + np.swapaxes(P, -1, -2))  # exactly symmetric (BLAS sums in any order)
+    with np.errstate(over="ignore", invalid="ignore"):  # a wound-up P: inf, and a warning of ours
+        P = U @ (D[..., :, None] * np.swapaxes(U, -1, -2))
+    return 0.5 * P + 0.5 * np.swapaxes(P, -1, -2)  # exactly symmetric, no overflow
 
 
 class _RecursiveEstimator:
@@ -397,15 +399,17 @@ class _RecursiveEstimator:
             phi = as_float_array(phi, "phi", ndim=(1, 2))
             if phi.shape[-1] != n:
                 raise param_error("phi", f"of shape (n,) or (N, n) with n={n}", f"<shape {phi.shape}>")
-            out = phi @ theta
+            with np.errstate(over="ignore", invalid="ignore"):  # huge φ: inf, as NumPy gives
+                out = phi @ theta
             return float(out) if out.ndim == 0 else out
         phi = as_float_array(phi, "phi", ndim=(2, 3))
         if phi.shape[0] != self._batch or phi.shape[-1] != n:
             raise param_error("phi", f"of shape (B, n) or (B, N, n) with B={self._batch}, n={n}",
                               f"<shape {phi.shape}>")
-        if self._single:
-            return np.einsum("b...i,bi->b...", phi, theta)
-        return np.einsum("b...i,bij->b...j", phi, theta)
+        with np.errstate(over="ignore", invalid="ignore"):
+            if self._single:
+                return np.einsum("b...i,bi->b...", phi, theta)
+            return np.einsum("b...i,bij->b...j", phi, theta)
 
     # ------------------------------------------------------- state round trip
     def _options(self) -> dict:
@@ -939,10 +943,8 @@ class KalmanRLS(_RecursiveEstimator):
             q = check_scalar(process_cov, "process_cov", low=0.0)
             Q = np.eye(n) * q
         else:
-            Q = as_float_array(process_cov, "process_cov", shape=(n, n), copy=True)
-            if np.max(np.abs(Q - Q.T), initial=0.0) > 100 * n * np.finfo(float).eps * np.max(np.abs(Q)):
-                raise param_error("process_cov", "a symmetric matrix", "<a non-symmetric matrix>")
-            Q = 0.5 * (Q + Q.T)
+            Q = symmetrised(as_float_array(process_cov, "process_cov", shape=(n, n)),
+                            "process_cov")
             ev = np.linalg.eigvalsh(Q)
             if ev[0] < -100 * n * np.finfo(float).eps * max(abs(ev[-1]), 1e-300):
                 raise param_error("process_cov", "positive semi-definite",

@@ -48,22 +48,28 @@ class LSResult:
     def unscaled_cov(self) -> np.ndarray:
         r"""(ΦᵀWΦ + ridge·I)⁻¹ = R⁻¹R⁻ᵀ, shape (n, n), from the triangular factor."""
         Ri = self._Rinv
-        return Ri @ Ri.T
+        with np.errstate(over="ignore"):  # a tiny design: inf is the honest answer
+            return Ri @ Ri.T
 
     @cached_property
     def cov(self) -> np.ndarray:
         r"""σ̂²(ΦᵀWΦ + ridge·I)⁻¹: shape (n, n), or (p, n, n) for p outputs."""
-        s2 = np.asarray(self.sigma2)
-        if s2.ndim == 0:
-            return s2 * self.unscaled_cov
-        return s2[:, None, None] * self.unscaled_cov[None]
+        s = np.sqrt(np.asarray(self.sigma2))
+        Ri = self._Rinv
+        with np.errstate(over="ignore"):  # (s R⁻¹)(s R⁻¹)ᵀ: σ̂ = 0 gives 0, not 0·inf
+            if s.ndim == 0:
+                Rs = s * Ri
+                return Rs @ Rs.T
+            Rs = s[:, None, None] * Ri[None]
+            return Rs @ np.swapaxes(Rs, -1, -2)
 
     @cached_property
     def stderr(self) -> np.ndarray:
         """Standard errors √diag(cov): shape (n,) or (n, p)."""
-        d = np.sqrt(np.diag(self.unscaled_cov))
+        d = np.hypot.reduce(self._Rinv, axis=1)  # row norms of R⁻¹ without overflow
         s = np.sqrt(np.asarray(self.sigma2))
-        return d * s if s.ndim == 0 else d[:, None] * s[None, :]
+        with np.errstate(over="ignore", invalid="ignore"):
+            return d * s if s.ndim == 0 else d[:, None] * s[None, :]
 
     def conf_int(self, alpha=0.05) -> np.ndarray:
         r"""Two-sided (1 − α) confidence intervals from Student's t with N − n dof.
@@ -162,10 +168,15 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     if rank < n:
         raise param_error("Phi", f"of full column rank n={n} (or use ridge > 0)",
                           f"<a design of numerical rank {rank}>")
-    theta = linalg.solve_triangular(R, Q.T @ B, lower=False)
-    resid = Y2 - Phi @ theta
+    with np.errstate(over="ignore", invalid="ignore"):
+        theta = linalg.solve_triangular(R, Q.T @ B, lower=False)
+    if not np.all(np.isfinite(theta)):
+        raise param_error("Phi", "scaled so that the solution is representable in float64 "
+                          "(rescale the columns of Phi or y)", "<a solution that overflows>")
+    with np.errstate(over="ignore", invalid="ignore"):  # residuals past 1e154: σ̂² = inf
+        resid = Y2 - Phi @ theta
+        wr2 = resid ** 2 if sw is None else (sw[:, None] * resid) ** 2
     dof = N - n
-    wr2 = resid ** 2 if sw is None else (sw[:, None] * resid) ** 2
     sigma2 = wr2.sum(axis=0) / dof if dof > 0 else np.full(Y2.shape[1], np.nan)
     if single:
         return LSResult(theta=theta[:, 0], residuals=resid[:, 0], sigma2=float(sigma2[0]),

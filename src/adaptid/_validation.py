@@ -154,6 +154,18 @@ def check_choice(x, name: str, choices) -> str:
     return x
 
 
+def symmetrised(M: np.ndarray, name: str, *, rtol=None) -> np.ndarray:
+    """Check that a finite square matrix is symmetric to ``rtol`` (relative to its
+    largest entry; default ``100 n eps``) and return ``(M + Mᵀ)/2`` without overflow."""
+    n = M.shape[0]
+    if rtol is None:
+        rtol = 100 * n * np.finfo(float).eps
+    scale = np.max(np.abs(M)) if M.size else 0.0
+    if scale > 0 and np.max(np.abs(M / scale - M.T / scale)) > rtol:
+        raise param_error(name, "a symmetric matrix", "<a non-symmetric matrix>")
+    return 0.5 * M + 0.5 * M.T
+
+
 def check_spd(P, name: str, n: int, *, rtol=None) -> np.ndarray:
     """Return ``P`` as an (n, n) symmetric positive definite float64 matrix.
 
@@ -164,13 +176,7 @@ def check_spd(P, name: str, n: int, *, rtol=None) -> np.ndarray:
     if np.ndim(P) == 0:
         c = check_scalar(P, name, low=0.0, low_open=True)
         return np.eye(n) * c
-    M = as_float_array(P, name, shape=(n, n))
-    if rtol is None:
-        rtol = 100 * n * np.finfo(float).eps
-    scale = np.max(np.abs(M)) if M.size else 0.0
-    if np.max(np.abs(M - M.T), initial=0.0) > rtol * scale:
-        raise param_error(name, "a symmetric matrix", "<a non-symmetric matrix>")
-    M = 0.5 * (M + M.T)
+    M = symmetrised(as_float_array(P, name, shape=(n, n)), name, rtol=rtol)
     try:
         np.linalg.cholesky(M)
     except np.linalg.LinAlgError:
