@@ -405,3 +405,11 @@ def test_nan_skip_kalman_equals_filterpy_skipping_updates(rng):
         np.testing.assert_allclose(tr.theta[k], kf.x[:, 0], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(est.P, kf.P, rtol=1e-9)
     assert np.array_equal(tr.skipped, miss)
+
+
+def test_efra_refuses_a_prior_outside_its_bounds():
+    s = fg.EFRA(0.5, 0.005, 0.005, 0.95)
+    bound = (1 - s.alpha) / (s.lam * s.delta)
+    with pytest.raises(ValueError, match="P0 must be with eigenvalues <= "):
+        adaptid.RLS(2, forgetting=s, P0=1e4)
+    adaptid.RLS(2, forgetting=s, P0=0.99 * bound)

@@ -215,6 +215,11 @@ class _RecursiveEstimator:
                     raise param_error(name, "finite (no NaN or inf) with nan_policy='raise'",
                                       f"<a non-finite value at sample {tuple(int(i) for i in idx[:lead])}>")
         w = self._per_sample(weights, "weights", shape_N, low=0.0)
+        # read-only views: the kernels see one array type whatever the caller
+        # passes (a writeable and a read-only array would compile twice)
+        Phi, Y = Phi.view(), Y.view()
+        Phi.flags.writeable = False
+        Y.flags.writeable = False
         return Phi, Y, w
 
     @staticmethod
@@ -451,10 +456,18 @@ class _RecursiveEstimator:
     def _set_state(self, S, batch, n_updates, n_skipped):
         expect = (self._state_length(),) if batch is None else (batch, self._state_length())
         S = as_float_array(S, "state['state']", shape=expect, copy=True, finite=False)
+        self._check_state(S.reshape(-1, S.shape[-1]))
         self._S = S
         self._batch = batch
         self.n_updates = int(n_updates)
         self.n_skipped = int(n_skipped)
+
+    def _check_state(self, S):
+        """Refuse a state vector the kernels cannot run on safely (rows of S).
+
+        RLS and Kalman states hold no indices: any float values are safe to
+        run on (a wound-up state stays wound up). The window's are checked.
+        """
 
     def save_state(self, path):
         """Write the state to ``path`` (versioned, checksummed ``.npz``; never pickle).
@@ -472,7 +485,8 @@ class _RecursiveEstimator:
         est = load_state(path)
         if not isinstance(est, cls):
             from ._exceptions import StateFileError
-            raise StateFileError(f"path holds the state of a {type(est).__name__}, not a {cls.__name__}")
+            raise StateFileError(f"{path}: holds the state of a {type(est).__name__}, "
+                                 f"not a {cls.__name__}")
         return est
 
     def copy(self):
@@ -631,6 +645,12 @@ class RLS(_ForgettingMixin, _RecursiveEstimator):
         self._lk = np.empty(1)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
                          n_outputs=n_outputs, windup_threshold=windup_threshold)
+        if isinstance(strat, EFRA):
+            bound = (1 - strat.alpha) / (strat.lam * strat.delta) if strat.delta > 0 else np.inf
+            if np.linalg.eigvalsh(self.P0)[-1] > bound:
+                raise param_error("P0", f"with eigenvalues <= (1 - alpha)/(lam delta) = {bound:.4g} "
+                                  "for EFRA forgetting (a larger P makes its -delta P^2 term "
+                                  "turn P indefinite)", "<a larger P0>")
 
     def _options(self):
         return {"forgetting": self._forgetting_option(), "P_max": self.P_max,
@@ -852,6 +872,20 @@ class SlidingWindowRLS(_ForgettingMixin, _RecursiveEstimator):
         if st & 4:
             self._warn_nonpositive(self.n_updates)
         return float(self._e[0]) if self._single else self._e.copy()
+
+    def _check_state(self, S):
+        super()._check_state(S)
+        n, p, M = self.n_params, self.n_outputs, self.window
+        o = n * p + n * n + n
+        L, pos, count = S[:, o], S[:, o + 1], S[:, o + 2]
+        Bw = S[:, o + 3 + M * (n + p): o + 3 + M * (n + p + 1)]
+        ok = (np.isfinite(L) & (L <= 0) & (pos == np.round(pos)) & (pos >= 0) & (pos < M)
+              & (count == np.round(count)) & (count >= 0) & (count <= M)
+              & ((count == M) | (pos == count)) & np.all(np.isfinite(Bw) & (Bw >= 0), axis=1))
+        if not ok.all():  # the buffer indices: a forged value would write out of bounds
+            raise param_error("state['state']", f"a window state (0 <= pos < {M}, "
+                              f"0 <= count <= {M}, log-forgetting <= 0, weights >= 0)",
+                              "<a damaged window state>")
 
     def _warn_rebuild(self, count):
         warnings.warn(

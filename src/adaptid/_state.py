@@ -55,9 +55,22 @@ def estimator_from_state(state: dict):
                           "<a dict without a valid 'estimator'>") from None
     if fmt != FORMAT:
         raise param_error("state['format']", f"{FORMAT}", fmt)
-    opts = dict(state["options"])
-    kwargs = dict(theta0=np.asarray(state["theta0"]) if not state["single_output"]
-                  else np.asarray(state["theta0"])[:, 0],
+    try:
+        return _build(cls, kind, state)
+    except (KeyError, IndexError, AttributeError) as err:
+        raise param_error("state", "a complete dict from get_state()",
+                          f"<{type(err).__name__}: {err}>") from None
+
+
+def _build(cls, kind, state):
+    opts = state["options"]
+    if not isinstance(opts, dict):
+        raise TypeError(f"state['options'] must be a dict, got {type(opts).__name__}")
+    opts = dict(opts)
+    theta0 = np.asarray(state["theta0"])
+    if theta0.ndim != 2:
+        raise ValueError(f"state['theta0'] must be 2-dimensional (n, p), got shape {theta0.shape}")
+    kwargs = dict(theta0=theta0 if not state["single_output"] else theta0[:, 0],
                   P0=np.asarray(state["P0"]), **opts)
     if not state["single_output"]:
         kwargs["n_outputs"] = int(state["n_outputs"])
@@ -165,17 +178,20 @@ def load_state(path):
         raise StateFileError(f"{path}: checksum mismatch (the file was altered or damaged)")
     if header.get("estimator") not in _classes():
         raise StateFileError(f"{path}: unknown estimator type {header.get('estimator')!r}")
-    opts = dict(header["options"])
-    if "process_cov" in arrays:
-        opts["process_cov"] = arrays["process_cov"]
-    state = {
-        "estimator": header["estimator"], "format": fmt, "n_params": header["n_params"],
-        "n_outputs": header["n_outputs"], "single_output": header["single_output"],
-        "options": opts, "theta0": arrays.get("theta0"), "P0": arrays.get("P0"),
-        "state": arrays.get("state"), "batch": header["batch"],
-        "n_updates": header["n_updates"], "n_skipped": header["n_skipped"],
-    }
     try:
+        opts = header["options"]
+        if not isinstance(opts, dict):
+            raise TypeError(f"options must be an object, got {type(opts).__name__}")
+        opts = dict(opts)
+        if "process_cov" in arrays:
+            opts["process_cov"] = arrays["process_cov"]
+        state = {
+            "estimator": header["estimator"], "format": fmt, "n_params": header["n_params"],
+            "n_outputs": header["n_outputs"], "single_output": header["single_output"],
+            "options": opts, "theta0": arrays.get("theta0"), "P0": arrays.get("P0"),
+            "state": arrays.get("state"), "batch": header["batch"],
+            "n_updates": header["n_updates"], "n_skipped": header["n_skipped"],
+        }
         return estimator_from_state(state)
-    except (ValueError, TypeError, KeyError) as err:
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError) as err:
         raise StateFileError(f"{path}: inconsistent state ({err})") from None

@@ -75,6 +75,10 @@ def as_float_array(x, name: str, *, ndim=None, shape=None, finite=True,
             raise param_error(name, "a real numeric array", x, exc=TypeError) from err
         if probe.dtype.kind == "c":
             raise param_error(name, "real-valued (not complex)", probe, exc=TypeError)
+        if probe.dtype.kind in "USV" or (probe.dtype.kind == "O" and any(
+                isinstance(v, (str, bytes, complex)) for v in probe.flat)):
+            # "1.5" is text, not a number: parsing is the caller's business
+            raise param_error(name, "a real numeric array (not text)", probe, exc=TypeError)
         if probe.dtype.kind not in "biuf":
             try:
                 probe = probe.astype(np.float64)

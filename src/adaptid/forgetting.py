@@ -213,7 +213,10 @@ class EFRA(ForgettingStrategy):
 
     The βI term keeps P from vanishing, the −δP² term keeps it from
     growing: for 0 < α < 1, β > 0, δ > 0 and λ ∈ (0, 1) P stays between
-    two multiples of I whatever the excitation (ibid., Theorem 1). The
+    two multiples of I whatever the excitation (ibid., Theorem 1), provided
+    P starts small enough: ``RLS`` refuses a P0 with an eigenvalue above
+    :math:`(1-\alpha)/(\lambda\delta)` (past it the −δP² term makes P
+    indefinite; the default P0 = 1e4 is too large — use e.g. P0=1). The
     authors' typical values are the defaults. The measurement part is a
     Bierman step; βI − δP² is added to the formed P and re-factorised
     (O(n³) per sample).
