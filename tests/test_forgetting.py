@@ -413,3 +413,17 @@ def test_efra_refuses_a_prior_outside_its_bounds():
     with pytest.raises(ValueError, match="P0 must be with eigenvalues <= "):
         adaptid.RLS(2, forgetting=s, P0=1e4)
     adaptid.RLS(2, forgetting=s, P0=0.99 * bound)
+
+
+def test_anti_windup_example_runs():
+    import subprocess
+    import sys
+    from pathlib import Path
+    script = Path(__file__).resolve().parents[1] / "examples" / "anti_windup.py"
+    out = subprocess.run([sys.executable, str(script), "--quiet-steps", "3000", "--no-plot"],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    rows = {line[:26].strip(): line[26:].split() for line in out.stdout.splitlines()[1:]}
+    assert rows["exponential λ=0.98"][1] == "True"      # windup warned
+    for name in ("directional λ=0.98", "constant trace", "EFRA", "exponential + P_max=10"):
+        assert rows[name][1] == "False", (name, rows[name])
