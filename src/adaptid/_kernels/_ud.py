@@ -142,6 +142,14 @@ def _one_sample(phi, y, e, lam, w, NP):
 
 
 @njit(**NJIT_INLINE)
+def _segment_start(S0, Sout, offsets, g):
+    """Rows a:z of segment g, and its state Sout[g] set to the prior S0."""
+    S = Sout[g]
+    S[:] = S0
+    return offsets[g], offsets[g + 1], S
+
+
+@njit(**NJIT_INLINE)
 def _views(S, NP, p):
     theta = S[0:NP * p].reshape((NP, p))
     o = NP * p
@@ -270,10 +278,7 @@ def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, dthr, ba
     NP = Phi.shape[1]  # @np
     p = Y.shape[1]
     for g in prange(offsets.shape[0] - 1):
-        a = offsets[g]
-        z = offsets[g + 1]
-        S = Sout[g]
-        S[:] = S0
+        a, z, S = _segment_start(S0, Sout, offsets, g)
         if p == 1:
             bad[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
                                  skipped[a:z], dthr, NP, 1)
@@ -478,10 +483,7 @@ def rls_strategy_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pm
 def rls_strategy_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk,
                               mode, fp, pmax, dthr, bad):
     for g in prange(offsets.shape[0] - 1):
-        a = offsets[g]
-        z = offsets[g + 1]
-        S = Sout[g]
-        S[:] = S0
+        a, z, S = _segment_start(S0, Sout, offsets, g)
         bad[g] = _rls_strategy_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
                                       skipped[a:z], Lk[a:z], mode, fp, pmax, dthr)
 
@@ -602,10 +604,7 @@ def kalman_run_segments(S0, Sout, Phi, Y, offsets, r2, w, Q, Th, E, skipped, dth
     """G Kalman streams back to back, each from S0 (see :func:`rls_run_segments`)."""
     NP = Phi.shape[1]  # @np
     for g in prange(offsets.shape[0] - 1):
-        a = offsets[g]
-        z = offsets[g + 1]
-        S = Sout[g]
-        S[:] = S0
+        a, z, S = _segment_start(S0, Sout, offsets, g)
         bad[g] = _kalman_stream(S, Phi[a:z], Y[a:z], r2, w[a:z], Q, Th[a:z], E[a:z],
                                 skipped[a:z], dthr, NP)
 
@@ -708,10 +707,7 @@ def window_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, M, rt
     """G sliding-window streams back to back, each from S0 (see :func:`rls_run_segments`)."""
     NP = Phi.shape[1]  # @np
     for g in prange(offsets.shape[0] - 1):
-        a = offsets[g]
-        z = offsets[g + 1]
-        S = Sout[g]
-        S[:] = S0
+        a, z, S = _segment_start(S0, Sout, offsets, g)
         rebuilds[g] = _window_stream_flat(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z],
                                           E[a:z], skipped[a:z], M, rtol, NP, Y.shape[1])
 
