@@ -228,7 +228,7 @@ def assert_kkt(res, A, b, C, d, G, h, lb, ub, tol):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_inequalities_and_bounds_satisfy_kkt_and_match_cvxpy(seed):
-    cp = pytest.importorskip("cvxpy")
+    import cvxpy as cp
     A, b, C, d, G, h = feasible_inequality_problem(seed)
     n = A.shape[1]
     lb, ub = np.full(n, -0.3), np.full(n, 0.4)

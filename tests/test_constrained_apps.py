@@ -182,7 +182,7 @@ def test_piecewise_polynomial_object():
 # ------------------------------------------------------------------ LQ control
 
 def cvxpy_lq_control(A, B, C, x_init, x_des, T, rho):
-    cp = pytest.importorskip("cvxpy")
+    import cvxpy as cp
     n, m = A.shape[0], B.shape[1]
     X, U = cp.Variable((n, T)), cp.Variable((m, T - 1))
     cons = [X[:, 1:] == A @ X[:, :-1] + B @ U, X[:, 0] == x_init, X[:, -1] == x_des]
@@ -265,7 +265,7 @@ def test_lq_control_bad_input(kwargs, pattern):
 # -------------------------------------------------------------- LQ estimation
 
 def cvxpy_lq_estimate(A, B, C, y, lam):
-    cp = pytest.importorskip("cvxpy")
+    import cvxpy as cp
     T, n, m = y.shape[0], A.shape[0], B.shape[1]
     X, U = cp.Variable((n, T)), cp.Variable((m, T - 1))
     obs = ~np.isnan(y.T)

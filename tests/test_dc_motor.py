@@ -16,7 +16,7 @@ from adaptid.datasets import dc_motor
 from adaptid.datasets._dc_motor import MOTOR_PARAMETERS as PRM
 from adaptid.models._dcmotor import DCMotorRegressors, dc_motor_regressors
 
-pd = pytest.importorskip("pandas")
+import pandas as pd  # noqa: E402
 
 PHYS = ("R", "L", "Ke", "J", "B", "tau_c", "tau_0")
 

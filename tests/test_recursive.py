@@ -88,7 +88,7 @@ def test_rls_property_cost(n, N, lam, logP0, seed, p):
 
 def test_rls_diffuse_prior_equals_ols_every_step(rng):
     """λ = 1, P0 = 1e10: the recursion equals OLS on the first k samples, k ≥ n+1."""
-    sm = pytest.importorskip("statsmodels.api")
+    import statsmodels.api as sm
     N, n = 400, 5
     Phi, y, _ = make_data(rng, N, n)
     Phi[:, 0] = 1.0

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-pytest.importorskip("sklearn")  # the adapter is an optional extra
+import sklearn  # noqa: E402,F401  (the test extra installs scikit-learn)
 
 from sklearn.linear_model import LinearRegression
 from sklearn.model_selection import KFold, cross_val_score
@@ -137,7 +137,7 @@ def test_window_and_forgetting_pass_through(rng):
 
 def test_forgetting_strategy_passes_through_and_clones(rng):
     from sklearn.base import clone
-    fg = pytest.importorskip("adaptid.forgetting")
+    from adaptid import forgetting as fg
     X, y = _data(rng)
     strat = fg.Directional(0.97)
     reg = RLSRegressor(forgetting=strat, P0=10.0).fit(X, y)
@@ -200,7 +200,7 @@ def test_pipeline_and_cross_val_score(rng):
 
 
 def test_dataframe_feature_names(rng):
-    pd = pytest.importorskip("pandas")
+    import pandas as pd
     X, y = _data(rng, N=50)
     df = pd.DataFrame(X, columns=["u", "v", "w"])
     reg = RLSRegressor().fit(df, y)
