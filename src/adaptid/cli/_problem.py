@@ -129,31 +129,28 @@ def _nan_check(table: Table, cols: dict, nan_policy: str) -> int:
     return count
 
 
+def _y_and_columns(table: Table, s: Structure, names, option: str, nan_policy: str):
+    """The --y column, the columns ``names`` of ``option``, --time, and the NaN rows."""
+    cols = table.expand(names, option)
+    y = table.column(s.y, "--y")
+    X = table.columns(cols, option)
+    if len(y) != len(X):
+        raise CLIError(f"{table.path}: --y column {s.y!r} has {len(y)} rows, {option} columns {len(X)}")
+    time = table.column(s.time, "--time") if s.time is not None else None
+    nan = _nan_check(table, {s.y: y, **{n: X[:, j] for j, n in enumerate(cols)}}, nan_policy)
+    return cols, y, X, time, nan
+
+
 def build_problem(table: Table, s: Structure, nan_policy: str) -> Problem:
     kind = s.kind
-    time = None
     if kind == "phi":
-        phi_names = table.expand(s.phi, "--phi")
-        y = table.column(s.y, "--y")
-        Phi = table.columns(phi_names, "--phi")
-        if len(y) != len(Phi):
-            raise CLIError(f"{table.path}: --y column {s.y!r} has {len(y)} rows, --phi columns {len(Phi)}")
-        if s.time is not None:
-            time = table.column(s.time, "--time")
-        nan = _nan_check(table, {s.y: y, **{n: Phi[:, j] for j, n in enumerate(phi_names)}}, nan_policy)
+        phi_names, y, Phi, time, nan = _y_and_columns(table, s, s.phi, "--phi", nan_policy)
         return Problem(kind, [("regression", phi_names, Phi, y, np.arange(len(y)))], len(y),
                        time=time, columns=[s.y, *phi_names], nan_rows=nan)
     if kind in ("arx", "fir"):
         from adaptid import models
 
-        y = table.column(s.y, "--y")
-        u_names = table.expand(s.u, "--u")
-        U = table.columns(u_names, "--u")
-        if len(y) != len(U):
-            raise CLIError(f"{table.path}: --y column {s.y!r} has {len(y)} rows, --u columns {len(U)}")
-        if s.time is not None:
-            time = table.column(s.time, "--time")
-        nan = _nan_check(table, {s.y: y, **{n: U[:, j] for j, n in enumerate(u_names)}}, nan_policy)
+        u_names, y, U, time, nan = _y_and_columns(table, s, s.u, "--u", nan_policy)
         u = U[:, 0] if U.shape[1] == 1 else U
         try:
             if kind == "arx":
