@@ -56,7 +56,7 @@ class LSResult:
         r"""σ̂²(ΦᵀWΦ + ridge·I)⁻¹: shape (n, n), or (p, n, n) for p outputs."""
         s = np.sqrt(np.asarray(self.sigma2))
         Ri = self._Rinv
-        with np.errstate(over="ignore"):  # (s R⁻¹)(s R⁻¹)ᵀ: σ̂ = 0 gives 0, not 0·inf
+        with np.errstate(over="ignore", invalid="ignore"):  # σ̂ = 0 gives 0, not 0·inf; σ̂ = inf: inf/NaN
             if s.ndim == 0:
                 Rs = s * Ri
                 return Rs @ Rs.T
@@ -156,8 +156,12 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
         sw = np.sqrt(w)
     if N + (n if ridge > 0 else 0) < n:
         raise param_error("Phi", f"with at least n={n} rows (or ridge > 0)", f"<{N} rows>")
-    A = Phi if sw is None else Phi * sw[:, None]
-    B = Y2 if sw is None else Y2 * sw[:, None]
+    with np.errstate(over="ignore", invalid="ignore"):
+        A = Phi if sw is None else Phi * sw[:, None]
+        B = Y2 if sw is None else Y2 * sw[:, None]
+    if sw is not None and not (np.isfinite(A).all() and np.isfinite(B).all()):
+        raise param_error("weights", "such that sqrt(weights) * Phi and sqrt(weights) * y are "
+                          "representable in float64", "<an overflow>")
     if ridge > 0:
         A = np.vstack([A, np.sqrt(ridge) * np.eye(n)])
         B = np.vstack([B, np.zeros((n, B.shape[1]))])
@@ -176,8 +180,8 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     with np.errstate(over="ignore", invalid="ignore"):  # residuals past 1e154: σ̂² = inf
         resid = Y2 - Phi @ theta
         wr2 = resid ** 2 if sw is None else (sw[:, None] * resid) ** 2
-    dof = N - n
-    sigma2 = wr2.sum(axis=0) / dof if dof > 0 else np.full(Y2.shape[1], np.nan)
+        dof = N - n
+        sigma2 = wr2.sum(axis=0) / dof if dof > 0 else np.full(Y2.shape[1], np.nan)
     if single:
         return LSResult(theta=theta[:, 0], residuals=resid[:, 0], sigma2=float(sigma2[0]),
                         dof=dof, rank=rank, _R=R, _single=True)
