@@ -8,11 +8,11 @@ coverage of the kernels' Python source).
 import os
 
 #: Options of every public kernel (compiled once, cached on disk).
-NJIT = dict(cache=True, nogil=True)
+NJIT = dict(cache=True, nogil=True, fastmath={"contract"})
 #: Options of kernels that run over independent streams in parallel.
-NJIT_PARALLEL = dict(cache=True, nogil=True, parallel=True)
+NJIT_PARALLEL = dict(cache=True, nogil=True, parallel=True, fastmath={"contract"})
 #: Options of the small building blocks inlined into the kernels.
-NJIT_INLINE = dict(cache=True, inline="always")
+NJIT_INLINE = dict(cache=True, inline="always", fastmath={"contract"})
 
 #: Largest number of parameters for which kernels are specialised (n as a
 #: compile-time constant, loops unrolled). Larger n use the generic kernels.

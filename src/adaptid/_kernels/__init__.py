@@ -58,6 +58,10 @@ def _specialised_source(n: int) -> str:
     src = _source()
     # the copy lives outside the package: make the relative import absolute
     src = src.replace("from .._config import", "from adaptid._config import")
+    src = src.replace("from ._scratch import", "from adaptid._kernels._scratch import")
+    # numba's cache does not see changes to imported helpers: name them in the copy
+    helper = hashlib.sha256((Path(__file__).parent / "_scratch.py").read_bytes()).hexdigest()[:16]
+    src += f"\n# _scratch.py: {helper}\n"
     out, count = _NP_LINE.subn(lambda m: f"{m.group(1)}NP = {n}", src)
     if count == 0:  # pragma: no cover - guards the template's contract
         raise RuntimeError("kernel template has no '# @np' lines")

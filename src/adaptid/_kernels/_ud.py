@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit, prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+from ._scratch import scratch, scratch2, small_scratch
 
 # Status bits returned by the single-step kernels.
 SKIPPED = 1
@@ -86,18 +87,21 @@ def _bierman_apply(U, D, r, f, v, b, NP):
     Returns α = r + φᵀPφ; the gain is b/α.
     """
     a = r + f[0] * v[0]
-    D[0] = D[0] * (r / a)
+    ia = 1.0 / a
+    D[0] = D[0] * (r * ia)
     b[0] = v[0]
     for j in range(1, NP):
         an = a + f[j] * v[j]
-        D[j] = D[j] * (a / an)
+        ian = 1.0 / an
+        D[j] = D[j] * (a * ian)
         b[j] = v[j]
-        pj = -f[j] / a
+        pj = -f[j] * ia
         for i in range(j):
             u = U[i, j]
             U[i, j] = u + b[i] * pj
             b[i] += u * v[j]
         a = an
+        ia = ian
     return a
 
 
@@ -150,6 +154,15 @@ def _segment_start(S0, Sout, offsets, g):
 
 
 @njit(**NJIT_INLINE)
+def _copy_factor(U, D, U2, D2, NP):
+    """U2, D2 ← U, D (the strictly upper triangle of U)."""
+    for j in range(NP):
+        D2[j] = D[j]
+        for i in range(j):
+            U2[i, j] = U[i, j]
+
+
+@njit(**NJIT_INLINE)
 def _views(S, NP, p):
     theta = S[0:NP * p].reshape((NP, p))
     o = NP * p
@@ -166,24 +179,28 @@ def _views(S, NP, p):
 def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
     # Written flat, with every branch at the top of the loop body: a branch
     # around the unrolled update (e.g. `if w > 0`) made LLVM spill the state
-    # and the loop ran 4 x slower (measured at n = 4).
-    theta, U, D = _views(S, NP, p)
-    f = np.empty(NP)
-    v = np.empty(NP)
-    b = np.empty(NP)
-    e = np.empty(p)
+    # and the loop ran 4 x slower (measured at n = 4). The factor is worked
+    # on in a stack copy (see _scratch): LLVM then knows that the stores to
+    # the trajectory cannot change it and stops reloading it after each one.
+    theta, Us, Ds = _views(S, NP, p)
+    U = scratch2(NP).T  # by columns, as in S
+    D = scratch(NP)
+    _copy_factor(Us, Ds, U, D, NP)
+    f = small_scratch(NP)
+    v = small_scratch(NP)
+    b = small_scratch(NP)
+    e = small_scratch(p)
     store = Th.shape[0] == Phi.shape[0]
     bad = -1
     for k in range(Phi.shape[0]):
         phi = Phi[k]
-        ok = True
+        ok = True  # all of the row finite; tested without branches
         for i in range(NP):
-            if not np.isfinite(phi[i]):
-                ok = False
+            ok &= phi[i] - phi[i] == 0.0
         for j in range(p):
-            if not np.isfinite(Y[k, j]):
-                ok = False
+            ok &= Y[k, j] - Y[k, j] == 0.0
         wk = w[k]
+        inside = True  # pivots in (0, dthr)
         if ok and wk > 0.0:
             for j in range(p):
                 s = Y[k, j]
@@ -201,6 +218,8 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
                 g = b[i] * ia
                 for j in range(p):
                     theta[i, j] += g * e[j]
+            for i in range(NP):
+                inside &= (D[i] > 0.0) & (D[i] < dthr)
         elif ok:  # weight 0: the sample only advances the forgetting
             for j in range(p):
                 s = Y[k, j]
@@ -210,18 +229,18 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
             il = 1.0 / lam[k]
             for i in range(NP):
                 D[i] *= il
+                inside &= (D[i] > 0.0) & (D[i] < dthr)
         else:
             skipped[k] = True
             for j in range(p):
                 E[k, j] = np.nan
-        if bad < 0:
-            for i in range(NP):
-                if not (D[i] > 0.0 and D[i] < dthr):
-                    bad = k
+        if bad < 0 and not inside:
+            bad = k
         if store:
             for i in range(NP):
                 for j in range(p):
                     Th[k, i, j] = theta[i, j]
+    _copy_factor(U, D, Us, Ds, NP)
     return bad
 
 
@@ -444,9 +463,11 @@ def _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, mode, fp, pmax, 
                     D[i] = np.nan
         Lk[k] = lk
         if bad < 0:
+            inside = True
             for i in range(NP):
-                if not (D[i] > 0.0 and D[i] < dthr):
-                    bad = k
+                inside &= (D[i] > 0.0) & (D[i] < dthr)
+            if not inside:
+                bad = k
         if store:
             _store(Th, k, theta, NP, p)
     return bad
