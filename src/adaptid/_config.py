@@ -7,6 +7,12 @@ coverage of the kernels' Python source).
 
 import os
 
+# fastmath={"contract"} lets LLVM fuse a*b + c into one FMA instruction (what
+# gcc -O3 does for C by default) and nothing else: no reassociation, no
+# assumption that values are finite, so NaN/inf checks and summation order stay
+# as written. Results are deterministic on a given machine; on a CPU without FMA
+# they differ in the last bits.
+
 #: Options of every public kernel (compiled once, cached on disk).
 NJIT = dict(cache=True, nogil=True, fastmath={"contract"})
 #: Options of kernels that run over independent streams in parallel.

@@ -11,7 +11,11 @@ after each one; small ones are promoted to registers outright. With ``n``
 known only at run time both fall back to ``np.empty``.
 
 The arrays live as long as the kernel's frame: they must not be returned
-or stored.
+or stored. Their contents start undefined, as with ``np.empty``.
+
+numba's on-disk cache does not notice edits to this file. The specialised
+copies carry its hash in their names, so they are rebuilt. The generic
+kernels in ``_ud.py`` are not: touch ``_ud.py`` after editing this file.
 """
 
 import numba
