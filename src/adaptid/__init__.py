@@ -43,6 +43,7 @@ _LAZY = {
     "multi_objective_lstsq": "adaptid.constrained",
     "lq_estimate_cv": "adaptid.constrained",
     "ConstrainedRLS": "adaptid.constrained",
+    "load_state": "adaptid._state",
     "recursive_residuals": "adaptid.diagnostics",
     "cusum": "adaptid.diagnostics",
     "cusum_squares": "adaptid.diagnostics",

@@ -10,6 +10,14 @@ A NumPy ``.npz`` archive read with ``allow_pickle=False`` holding
   "adaptid_version", "checksum"}``;
 * ``theta0``, ``P0``, ``state`` and, for KalmanRLS, ``process_cov`` — float64.
 
+A :class:`~adaptid.constrained.ConstrainedRLS` is stored as its inner
+:class:`~adaptid.RLS` on the reduced parameters (the fields above, with
+``"inner_estimator": "RLS"``), plus ``"estimator": "ConstrainedRLS"`` and
+``"outer": {"n_params", "format", "options"}`` in the header and the arrays
+``C``, ``d``, ``outer_theta0`` and ``outer_P0``. Reading rebuilds it through
+``ConstrainedRLS.from_state``, which re-derives the null-space basis from
+``C`` and checks that the inner estimator fits it.
+
 ``checksum`` is the SHA-256 of the header without the checksum (canonical
 JSON, sorted keys) followed by the raw bytes, dtype and shape of every array
 in name order. The file is written to a temporary name in the same folder,
@@ -35,7 +43,8 @@ from ._exceptions import StateFileError
 
 FORMAT = 2  # 2: U stored by columns in the state vector (1: by rows; not read)
 _MAGIC = "adaptid-state"
-_ARRAYS = ("theta0", "P0", "state", "process_cov")
+_ARRAYS = ("theta0", "P0", "state", "process_cov", "C", "d", "outer_theta0", "outer_P0")
+_WRAPPERS = ("ConstrainedRLS",)  # estimators stored as an inner core estimator + extras
 
 
 def _classes():
@@ -97,10 +106,17 @@ def _digest(header: dict, arrays: dict) -> str:
     return h.hexdigest()
 
 
-def save_state(est, path) -> None:
-    """Write ``est.get_state()`` to ``path`` atomically (see module docstring)."""
+def _payload(st: dict):
+    """(header, arrays) of a get_state() dict; the header without checksum."""
     from . import __version__
-    st = est.get_state()
+    if st.get("estimator") in _WRAPPERS:
+        header, arrays = _payload(st["inner"])
+        header["inner_estimator"] = header["estimator"]
+        header["estimator"] = st["estimator"]
+        header["outer"] = {"n_params": st["n_params"], "format": st["format"],
+                           "options": dict(st["options"])}
+        arrays.update(C=st["C"], d=st["d"], outer_theta0=st["theta0"], outer_P0=st["P0"])
+        return header, arrays
     opts = dict(st["options"])
     arrays = {"theta0": st["theta0"], "P0": st["P0"], "state": st["state"]}
     if "process_cov" in opts:
@@ -112,6 +128,12 @@ def save_state(est, path) -> None:
         "n_updates": st["n_updates"], "n_skipped": st["n_skipped"],
         "adaptid_version": __version__,
     }
+    return header, arrays
+
+
+def save_state(est, path) -> None:
+    """Write ``est.get_state()`` to ``path`` atomically (see module docstring)."""
+    header, arrays = _payload(est.get_state())
     header["checksum"] = _digest(header, arrays)
     buf = io.BytesIO()
     np.savez(buf, header=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8), **arrays)
@@ -133,7 +155,30 @@ def save_state(est, path) -> None:
 
 
 def load_state(path):
-    """Read a state file; raise :class:`StateFileError` on any damage or mismatch."""
+    """Read a state file written by any estimator's ``save_state``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    RLS, SlidingWindowRLS, KalmanRLS or ConstrainedRLS
+        The estimator, exactly as it was saved: continuing it gives bit for
+        bit the results of the uninterrupted run.
+
+    Raises
+    ------
+    StateFileError
+        (a ``ValueError``) on any damage or mismatch: unreadable, truncated,
+        not an adaptid state file, a newer format, a checksum mismatch, an
+        unknown estimator type or an inconsistent state. Nothing is unpickled.
+
+    See Also
+    --------
+    RLS.load_state : the same, refusing a file of another estimator type.
+    """
     path = Path(os.fspath(path))
     try:
         data = path.read_bytes()
@@ -176,8 +221,14 @@ def load_state(path):
         raise StateFileError(f"{path}: arrays must be float64")
     if checksum != _digest(header, arrays):
         raise StateFileError(f"{path}: checksum mismatch (the file was altered or damaged)")
-    if header.get("estimator") not in _classes():
-        raise StateFileError(f"{path}: unknown estimator type {header.get('estimator')!r}")
+    kind = header.get("estimator")
+    wrapped = kind in _WRAPPERS
+    core = header.get("inner_estimator") if wrapped else kind
+    if not isinstance(kind, str) or core not in _classes():
+        raise StateFileError(f"{path}: unknown estimator type {kind!r}")
+    extra = {"C", "d", "outer_theta0", "outer_P0"}
+    if not wrapped and set(arrays) & extra:
+        raise StateFileError(f"{path}: unexpected arrays {sorted(set(arrays) & extra)}")
     try:
         opts = header["options"]
         if not isinstance(opts, dict):
@@ -186,12 +237,21 @@ def load_state(path):
         if "process_cov" in arrays:
             opts["process_cov"] = arrays["process_cov"]
         state = {
-            "estimator": header["estimator"], "format": fmt, "n_params": header["n_params"],
+            "estimator": core, "format": fmt, "n_params": header["n_params"],
             "n_outputs": header["n_outputs"], "single_output": header["single_output"],
             "options": opts, "theta0": arrays.get("theta0"), "P0": arrays.get("P0"),
             "state": arrays.get("state"), "batch": header["batch"],
             "n_updates": header["n_updates"], "n_skipped": header["n_skipped"],
         }
-        return estimator_from_state(state)
+        if not wrapped:
+            return estimator_from_state(state)
+        outer = header["outer"]
+        if not isinstance(outer, dict) or not isinstance(outer.get("options"), dict):
+            raise TypeError("outer must be an object with options")
+        from .constrained import ConstrainedRLS
+        return ConstrainedRLS.from_state({
+            "estimator": kind, "format": outer["format"], "n_params": outer["n_params"],
+            "C": arrays["C"], "d": arrays["d"], "theta0": arrays["outer_theta0"],
+            "P0": arrays["outer_P0"], "options": dict(outer["options"]), "inner": state})
     except (ValueError, TypeError, KeyError, IndexError, AttributeError) as err:
         raise StateFileError(f"{path}: inconsistent state ({err})") from None

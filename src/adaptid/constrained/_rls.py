@@ -333,6 +333,27 @@ class ConstrainedRLS:
         est._rls = inner
         return est
 
+    def save_state(self, path):
+        """Write the state to ``path`` (versioned, checksummed ``.npz``; never pickle).
+
+        The same safe format as :meth:`adaptid.RLS.save_state`: the inner
+        estimator on the reduced parameters plus C, d and the prior. Written
+        to a temporary name and renamed, so a crash never leaves half a file.
+        """
+        from .._state import save_state
+        save_state(self, path)
+
+    @classmethod
+    def load_state(cls, path) -> "ConstrainedRLS":
+        """Read a file written by :meth:`save_state`; raises StateFileError if it is damaged."""
+        from .._exceptions import StateFileError
+        from .._state import load_state
+        est = load_state(path)
+        if not isinstance(est, cls):
+            raise StateFileError(f"{path}: holds the state of a {type(est).__name__}, "
+                                 f"not a {cls.__name__}")
+        return est
+
     def __repr__(self) -> str:
         return (f"ConstrainedRLS(n_params={self.n_params}, n_constraints={self.C.shape[0]}, "
                 f"forgetting={self.forgetting!r}, n_updates={self.n_updates})")
