@@ -405,3 +405,25 @@ def test_example_runs(tmp_path):
                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert out.returncode == 0, out.stderr
     assert "python-control step response vs simulate" in out.stdout
+
+
+@pytest.mark.parametrize("model", ["armax", "oe"])
+def test_pseudolinear_recursion_keeps_a_diffuse_prior_accurate(rng, model):
+    """With nc = 0 (ARMAX) or nf = 0 (OE) the pseudo-linear recursion is plain
+    RLS on fixed regressors. From a diffuse prior (P0 = 1e12, λ = 1) every
+    estimate from sample n + 1 on must equal ordinary least squares on the
+    rows so far (numpy.linalg.lstsq), as the core RLS does: the plain
+    covariance form misses this by orders of magnitude."""
+    y, u = _arx_data(rng, 300)
+    if model == "armax":
+        m, reg = ARMAX(2, 2, 0), arx_regressors(y, u, 2, 2, 1)
+    else:
+        m, reg = OE(3, 0, 1), arx_regressors(y, u, 0, 3, 1)
+    n = reg.Phi.shape[1]
+    traj = m.fit_recursive(y, u, adaptid.RLS(n, P0=1e12))
+    Phi = reg.Phi * (np.array([-1, -1, 1, 1]) if model == "armax" else 1.0)
+    worst = 0.0
+    for k in range(n + 1, len(reg.y) + 1):
+        ols = np.linalg.lstsq(Phi[:k], reg.y[:k], rcond=None)[0]
+        worst = max(worst, np.max(np.abs(traj.theta[k - 1] - ols)) / np.max(np.abs(ols)))
+    assert worst < 1e-6

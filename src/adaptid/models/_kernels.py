@@ -12,13 +12,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._config import NJIT
+from .._kernels._ud import _bierman_apply, _bierman_prep, _time_update
+
 __all__ = ["pseudolinear_run"]
 
 
-@njit(cache=True, nogil=True)
-def pseudolinear_run(Phi_fix, Y, nd, alpha, beta, sgn, theta, P, lam, Q, r2, M,
-                     Th, E, V):
-    r"""Recursive pseudo-linear regression in covariance form.
+@njit(**NJIT)
+def pseudolinear_run(Phi_fix, Y, nd, alpha, beta, sgn, theta, U, D, lam, Q, kalman, r2,
+                     M, rtol, Th, E, V):
+    r"""Recursive pseudo-linear regression on the U-D factors of P.
 
     Per sample k (``phi`` = fixed columns, then ``sgn * v[k-1..k-nd]``):
 
@@ -29,25 +32,33 @@ def pseudolinear_run(Phi_fix, Y, nd, alpha, beta, sgn, theta, P, lam, Q, r2, M,
         \theta \leftarrow \theta + K\varepsilon_k,\quad
         P \leftarrow (P - K\varphi_k^T P)/\lambda + Q,
 
-    then, with a window M > 0, the sample k - M is removed with weight
-    :math:`\lambda^M` (a rank-one downdate), and finally
-    :math:`v_k = \alpha y_k + \beta\varphi_k^T\theta`. P is symmetrised
-    after every step. ``theta`` and ``P`` are updated in place; ``Th[k]``,
+    done as the core estimators do it (:mod:`adaptid._kernels._ud`):
+    ``D ← D/λ``, a Bierman update with weight r₂, and for the Kalman
+    recursion (``kalman``) the time update ``P + Q`` re-factorised. With a
+    window M > 0 the sample k − M is then removed with weight
+    :math:`c = \lambda^M` (Bierman with weight −1/c), unless
+    :math:`1 - c\,\varphi^T P\varphi <` ``rtol`` (the removal would make P
+    indefinite or nearly so): then it is refused and counted. Finally
+    :math:`v_k = \alpha y_k + \beta\varphi_k^T\theta`. ``theta``, ``U``
+    (unit upper triangular) and ``D`` are updated in place; ``Th[k]``,
     ``E[k]``, ``V[k]`` receive θ after sample k, ε_k and v_k.
 
-    Returns the number of window removals refused because they would have
-    made P indefinite.
+    Returns the number of window removals refused, or −1 if the time update
+    lost positive definiteness.
     """
     N, nfix = Phi_fix.shape
     n = nfix + nd
     phi = np.empty(n)
-    Pphi = np.empty(n)
-    K = np.empty(n)
+    f = np.empty(n)
+    v = np.empty(n)
+    b = np.empty(n)
+    W = np.empty((n, n))
     vh = np.zeros(max(nd, 1))
     Mb = max(M, 1)
     Bphi = np.zeros((Mb, n))
     By = np.zeros(Mb)
     cM = lam ** M
+    il = 1.0 / lam
     refused = 0
     for k in range(N):
         for j in range(nfix):
@@ -58,60 +69,41 @@ def pseudolinear_run(Phi_fix, Y, nd, alpha, beta, sgn, theta, P, lam, Q, r2, M,
         for j in range(n):
             e -= phi[j] * theta[j]
         E[k] = e
-        # measurement update (with forgetting) and time update
-        s = lam * r2
+        if lam != 1.0:
+            for i in range(n):
+                D[i] *= il
+        _bierman_prep(U, D, phi, f, v, n)
+        a = _bierman_apply(U, D, r2, f, v, b, n)
+        g = e / a
         for i in range(n):
-            acc = 0.0
-            for j in range(n):
-                acc += P[i, j] * phi[j]
-            Pphi[i] = acc
-            s += phi[i] * acc
-        for i in range(n):
-            K[i] = Pphi[i] / s
-            theta[i] += K[i] * e
-        for i in range(n):
-            for j in range(i, n):
-                pij = (P[i, j] - K[i] * Pphi[j]) / lam + Q[i, j]
-                pji = (P[j, i] - K[j] * Pphi[i]) / lam + Q[j, i]
-                P[i, j] = 0.5 * (pij + pji)
-                P[j, i] = P[i, j]
-        # sliding window: remove the sample that leaves it
+            theta[i] += b[i] * g
+        if kalman and not _time_update(U, D, Q, W, n):
+            return -1
         if M > 0:
             slot = k % M
             if k >= M:
-                eo = By[slot]
-                so = -1.0 / cM
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(n):
-                        acc += P[i, j] * Bphi[slot, j]
-                    Pphi[i] = acc
-                    so += Bphi[slot, i] * acc
-                    eo -= Bphi[slot, i] * theta[i]
-                if so < 0.0:
-                    for i in range(n):
-                        K[i] = Pphi[i] / so
-                        theta[i] += K[i] * eo
-                    for i in range(n):
-                        for j in range(i, n):
-                            pij = P[i, j] - K[i] * Pphi[j]
-                            pji = P[j, i] - K[j] * Pphi[i]
-                            P[i, j] = 0.5 * (pij + pji)
-                            P[j, i] = P[i, j]
-                else:
+                q = _bierman_prep(U, D, Bphi[slot], f, v, n)
+                if 1.0 - cM * q < rtol:
                     refused += 1
+                else:
+                    eo = By[slot]
+                    for i in range(n):
+                        eo -= Bphi[slot, i] * theta[i]
+                    a = _bierman_apply(U, D, -1.0 / cM, f, v, b, n)
+                    g = eo / a
+                    for i in range(n):
+                        theta[i] += b[i] * g
             for j in range(n):
                 Bphi[slot, j] = phi[j]
             By[slot] = Y[k]
-        # the signal the next regressors need
         yhat = 0.0
         for j in range(n):
             yhat += phi[j] * theta[j]
             Th[k, j] = theta[j]
-        v = alpha * Y[k] + beta * yhat
-        V[k] = v
+        vk = alpha * Y[k] + beta * yhat
+        V[k] = vk
         for j in range(nd - 1, 0, -1):
             vh[j] = vh[j - 1]
         if nd > 0:
-            vh[0] = v
+            vh[0] = vk
     return refused

@@ -14,15 +14,15 @@ __all__ = ["estimator_settings", "run_pseudolinear"]
 
 
 def estimator_settings(estimator, n):
-    """(λ, Q, r2, M, θ, P) from an RLS / SlidingWindowRLS / KalmanRLS (or defaults).
+    """(λ, Q, kalman, r2, M, θ, U, D) from an RLS / SlidingWindowRLS / KalmanRLS (or defaults).
 
-    The estimator is read, never modified: its current θ and P are the
-    starting point (θ₀, P₀ for a fresh one), its options the algorithm.
+    The estimator is read, never modified: its current θ and U-D factors are
+    the starting point (θ₀, P₀ for a fresh one), its options the algorithm.
     """
     from .._estimators import RLS, KalmanRLS, SlidingWindowRLS
 
     if estimator is None:
-        return 1.0, np.zeros((n, n)), 1.0, 0, np.zeros(n), np.eye(n) * 1e4
+        return 1.0, np.zeros((n, n)), False, 1.0, 0, np.zeros(n), np.eye(n), np.full(n, 1e4)
     if not isinstance(estimator, (RLS, SlidingWindowRLS, KalmanRLS)):
         raise param_error("estimator", "None or an adaptid RLS, SlidingWindowRLS or KalmanRLS",
                           estimator, exc=TypeError)
@@ -33,11 +33,12 @@ def estimator_settings(estimator, n):
         raise param_error("estimator", "a single-stream, single-output estimator",
                           "<a batched or multi-output estimator>")
     theta = np.array(estimator.theta, dtype=np.float64)
-    P = np.ascontiguousarray(estimator.P, dtype=np.float64)
-    lam, Q, r2, M = 1.0, np.zeros((n, n)), 1.0, 0
+    U, D = estimator._ud_views(estimator._S)
+    U, D = np.array(U, dtype=np.float64), np.array(D, dtype=np.float64)
+    lam, Q, kalman, r2, M = 1.0, np.zeros((n, n)), False, 1.0, 0
     if isinstance(estimator, KalmanRLS):
         Q = np.ascontiguousarray(estimator.process_cov, dtype=np.float64)
-        r2 = float(estimator.noise_var)
+        kalman, r2 = True, float(estimator.noise_var)
     else:
         lam = estimator.forgetting
         if not isinstance(lam, (float, int, np.floating)) or isinstance(lam, bool):
@@ -46,23 +47,29 @@ def estimator_settings(estimator, n):
         lam = float(lam)
         if isinstance(estimator, SlidingWindowRLS):
             M = int(estimator.window)
-    return lam, Q, r2, M, theta, P
+    return lam, Q, kalman, r2, M, theta, U, D
 
 
 def run_pseudolinear(Phi_fix, Y, nd, alpha, beta, sgn, estimator):
     """One compiled RELS / PLR pass; returns (Th, E, V, theta, P)."""
+    from .._config import DOWNDATE_RTOL
+
     n = Phi_fix.shape[1] + nd
-    lam, Q, r2, M, theta, P = estimator_settings(estimator, n)
+    lam, Q, kalman, r2, M, theta, U, D = estimator_settings(estimator, n)
     N = Y.shape[0]
     Th = np.empty((N, n))
     E = np.empty(N)
     V = np.empty(N)
     refused = pseudolinear_run(np.ascontiguousarray(Phi_fix, dtype=np.float64),
                                np.ascontiguousarray(Y, dtype=np.float64), nd,
-                               float(alpha), float(beta), float(sgn), theta, P,
-                               lam, Q, r2, M, Th, E, V)
+                               float(alpha), float(beta), float(sgn), theta, U, D,
+                               lam, Q, kalman, r2, M, DOWNDATE_RTOL, Th, E, V)
+    if refused < 0:
+        raise FloatingPointError("the Kalman time update P + Q lost positive definiteness "
+                                 "(P overflowed?)")
     if refused:
         warnings.warn(f"{refused} window removal(s) refused: they would have made P indefinite "
-                      "(the window then holds older samples too)", DefinitenessLossWarning,
-                      stacklevel=3)
-    return Th, E, V, theta, P
+                      "or nearly so (the window then holds older samples too)",
+                      DefinitenessLossWarning, stacklevel=3)
+    P = (U * D) @ U.T
+    return Th, E, V, theta, 0.5 * (P + P.T)
