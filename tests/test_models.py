@@ -367,8 +367,10 @@ def test_bad_orders_and_short_records(rng):
         ARX(2, 3, 4).fit(y[:6], u[:6])
     with pytest.raises(ValueError, match="y must be longer than 4 samples"):
         ARMAX(4, 1, 1).fit_recursive(y[:4], u[:4])
-    with pytest.raises(ValueError, match="u must be one input"):
-        OE(1, 1).fit(y, np.c_[u, u])
+    with pytest.raises(ValueError, match="nf must be an integer or a sequence of 2"):
+        OE(1, [1, 1, 1]).fit(y, np.c_[u, u])
+    with pytest.raises(ValueError, match=r"nb\[1\] must be an integer >= 1"):
+        OE([1, 0], 1)
     with pytest.raises(ValueError, match="nb must be an integer or a sequence of 2"):
         ARX(1, [1, 1, 1], 1).fit(y, np.c_[u, u])
     m = ARX(1, 1, 1)

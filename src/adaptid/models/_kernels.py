@@ -19,11 +19,17 @@ __all__ = ["pseudolinear_run"]
 
 
 @njit(**NJIT)
-def pseudolinear_run(Phi_fix, Y, nd, alpha, beta, sgn, theta, U, D, lam, Q, kalman, r2,
-                     M, rtol, Th, E, V):
+def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn, theta,
+                     U, D, lam, Q, kalman, r2, M, rtol, Th, E, V):
     r"""Recursive pseudo-linear regression on the U-D factors of P.
 
-    Per sample k (``phi`` = fixed columns, then ``sgn * v[k-1..k-nd]``):
+    The regressor of sample k is the fixed columns ``Phi_fix[k]`` followed
+    by ``nd`` dynamic ones: column j is ``sgn * v_g[k - l]`` with
+    ``g = dyn_group[j]``, ``l = dyn_lag[j]``, where the G signals
+    :math:`v_{g,k} = \alpha y_k + \beta\sum_{i:\,\text{col\_group}[i]=g}
+    \varphi_{k,i}\theta_i` are formed after the update of sample k (ARMAX:
+    one group of all columns, the a-posteriori residual; OE: one group per
+    input, that input's simulated output). Per sample:
 
     .. math::
 
@@ -39,21 +45,27 @@ def pseudolinear_run(Phi_fix, Y, nd, alpha, beta, sgn, theta, U, D, lam, Q, kalm
     :math:`c = \lambda^M` (Bierman with weight −1/c), unless
     :math:`1 - c\,\varphi^T P\varphi <` ``rtol`` (the removal would make P
     indefinite or nearly so): then it is refused and counted. Finally
-    :math:`v_k = \alpha y_k + \beta\varphi_k^T\theta`. ``theta``, ``U``
-    (unit upper triangular) and ``D`` are updated in place; ``Th[k]``,
-    ``E[k]``, ``V[k]`` receive θ after sample k, ε_k and v_k.
+    the signals :math:`v_{g,k}` are formed. ``theta``, ``U`` (unit upper
+    triangular) and ``D`` are updated in place; ``Th[k]``, ``E[k]``,
+    ``V[k, g]`` receive θ after sample k, ε_k and :math:`v_{g,k}`.
 
     Returns the number of window removals refused, or −1 if the time update
     lost positive definiteness.
     """
     N, nfix = Phi_fix.shape
+    nd = dyn_group.shape[0]
     n = nfix + nd
+    G = V.shape[1]
+    L = 1
+    for j in range(nd):
+        L = max(L, dyn_lag[j])
     phi = np.empty(n)
     f = np.empty(n)
     v = np.empty(n)
     b = np.empty(n)
     W = np.empty((n, n))
-    vh = np.zeros(max(nd, 1))
+    vh = np.zeros((G, L))  # vh[g, l - 1] = v_g[k - l]
+    vg = np.empty(G)
     Mb = max(M, 1)
     Bphi = np.zeros((Mb, n))
     By = np.zeros(Mb)
@@ -64,7 +76,7 @@ def pseudolinear_run(Phi_fix, Y, nd, alpha, beta, sgn, theta, U, D, lam, Q, kalm
         for j in range(nfix):
             phi[j] = Phi_fix[k, j]
         for j in range(nd):
-            phi[nfix + j] = sgn * vh[j]
+            phi[nfix + j] = sgn * vh[dyn_group[j], dyn_lag[j] - 1]
         e = Y[k]
         for j in range(n):
             e -= phi[j] * theta[j]
@@ -96,14 +108,15 @@ def pseudolinear_run(Phi_fix, Y, nd, alpha, beta, sgn, theta, U, D, lam, Q, kalm
             for j in range(n):
                 Bphi[slot, j] = phi[j]
             By[slot] = Y[k]
-        yhat = 0.0
+        for g in range(G):
+            vg[g] = 0.0
         for j in range(n):
-            yhat += phi[j] * theta[j]
+            vg[col_group[j]] += phi[j] * theta[j]
             Th[k, j] = theta[j]
-        vk = alpha * Y[k] + beta * yhat
-        V[k] = vk
-        for j in range(nd - 1, 0, -1):
-            vh[j] = vh[j - 1]
-        if nd > 0:
-            vh[0] = vk
+        for g in range(G):
+            vk = alpha * Y[k] + beta * vg[g]
+            V[k, g] = vk
+            for lag in range(L - 1, 0, -1):
+                vh[g, lag] = vh[g, lag - 1]
+            vh[g, 0] = vk
     return refused

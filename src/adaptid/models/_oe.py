@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from .._validation import check_int, param_error
+from .._validation import check_int
+from ._builders import _per_input
 from ._pem import _PseudoLinearModel, lagmat
 
 __all__ = ["OE"]
@@ -16,16 +17,20 @@ class OE(_PseudoLinearModel):
 
     .. math::
 
-        y_k = \frac{B(q)}{F(q)}u_k + e_k,\qquad
-        \theta = [b_0..b_{n_b-1},\ f_1..f_{n_f}],
+        y_k = \sum_{i=1}^{m}\frac{B_i(q)}{F_i(q)}u^{(i)}_k + e_k,\qquad
+        \theta = [b^{(1)}, \dots, b^{(m)},\ f^{(1)}, \dots, f^{(m)}],
 
-    with the noise-free output :math:`w_k = B(q)/F(q)\,u_k`. The predictor
-    is :math:`\hat y_k = w_k = \varphi_k^T\theta`,
-    :math:`\varphi_k = [u_{k-n_k}, \dots, u_{k-n_k-n_b+1}, -w_{k-1}, \dots, -w_{k-n_f}]`
-    — a pseudo-linear regression on the model's own simulated output, which
-    (unlike ARX, whose regressor holds the noisy y) is not correlated with
-    the noise, so the estimate is consistent for white or coloured e
-    (when :math:`1/F(e^{i\omega}) - 1/2` is strictly positive real for the
+    with :math:`b^{(i)} = [b_0..b_{n_{b,i}-1}]` and
+    :math:`f^{(i)} = [f_1..f_{n_{f,i}}]` (MATLAB's ``oe`` layout), and the
+    noise-free outputs :math:`w^{(i)}_k = B_i(q)/F_i(q)\,u^{(i)}_k`. The
+    predictor is :math:`\hat y_k = \sum_i w^{(i)}_k = \varphi_k^T\theta`,
+    :math:`\varphi_k` holding, per input, :math:`u^{(i)}_{k-n_{k,i}}, \dots,
+    u^{(i)}_{k-n_{k,i}-n_{b,i}+1}` and then, per input,
+    :math:`-w^{(i)}_{k-1}, \dots, -w^{(i)}_{k-n_{f,i}}` — a pseudo-linear
+    regression on the model's own simulated outputs, which (unlike ARX,
+    whose regressor holds the noisy y) is not correlated with the noise, so
+    the estimate is consistent for white or coloured e (when
+    :math:`1/F_i(e^{i\omega}) - 1/2` is strictly positive real for the
     recursive version):
 
     * :meth:`fit_recursive` — recursive pseudo-linear regression (RPLR,
@@ -33,18 +38,22 @@ class OE(_PseudoLinearModel):
       Stoica 1989, sec. 9.4), one compiled pass with any core estimator;
     * :meth:`fit` — batch: the Steiglitz–McBride iteration (ARX fits by
       :func:`adaptid.lstsq` on y and u prefiltered by 1/F̂), started from
-      the plain ARX estimate.
+      the plain ARX estimate. With several inputs, each input's
+      Steiglitz–McBride step is fitted to y minus the other inputs' current
+      simulated outputs, input after input, until θ settles (backfitting).
 
-    ``refine=True`` then minimises :math:`\sum_k(y_k - w_k(\theta))^2` with
-    :func:`scipy.optimize.least_squares` (analytic gradient
-    :math:`\psi_k = \varphi_k/F(q)`). The rows are the samples
-    k = s … N-1, :math:`s = n_k + n_b - 1`, with w = 0 before the first
-    row. One input only.
+    ``refine=True`` then minimises :math:`\sum_k(y_k - \sum_i w^{(i)}_k(\theta))^2`
+    with :func:`scipy.optimize.least_squares` (analytic gradient:
+    :math:`\partial w^{(i)}/\partial b^{(i)}_j = u^{(i)}_{k-n_{k,i}-j}/F_i(q)`,
+    :math:`\partial w^{(i)}/\partial f^{(i)}_j = -w^{(i)}_{k-j}/F_i(q)`).
+    The rows are the samples k = s … N-1, :math:`s = \max_i(n_{k,i} + n_{b,i}) - 1`,
+    with w = 0 before the first row.
 
     Parameters
     ----------
-    nb, nf, nk : int
-        Orders (``nb >= 1``, ``nf >= 0``) and input delay (``>= 0``).
+    nb, nf, nk : int or sequence of int
+        Orders (``nb >= 1``, ``nf >= 0``) and input delays (``>= 0``): one
+        integer for every input or one per input.
     dt : float
         Sample time (default 1.0).
 
@@ -62,39 +71,78 @@ class OE(_PseudoLinearModel):
     _alpha, _beta, _sgn = 0.0, 1.0, -1.0
 
     def __init__(self, nb, nf, nk=1, *, dt=1.0):
-        check_int(nb, "nb", low=1)
-        self._init_orders(0, nb, 0, nf, nk, dt)
-        self._nd = self.nf
+        if np.ndim(nb) == 0:
+            check_int(nb, "nb", low=1)
+        else:
+            [check_int(v, f"nb[{i}]", low=1) for i, v in enumerate(np.ravel(nb))]
+        if np.ndim(nf) == 0:
+            check_int(nf, "nf", low=0)
+        else:
+            [check_int(v, f"nf[{i}]", low=0) for i, v in enumerate(np.ravel(nf))]
+        self._init_orders(0, nb, 0, 0, nk, dt)
+        self.nf = nf
+        self._nf_spec = nf
 
-    def _check_inputs(self, U):
-        if U.shape[1] != 1:
-            raise param_error("u", "one input (shape (N,) or (N, 1)) for OE", f"<{U.shape[1]} inputs>")
+    def _set_inputs(self, m, single):
+        super()._set_inputs(m, single)
+        self._nf = _per_input(self._nf_spec, "nf", m, low=0)
+        self._nd = sum(self._nf)
+
+    def _groups(self, nfix):
+        col = np.concatenate([np.full(b, i) for i, b in enumerate(self._nb)] +
+                             [np.full(f, i) for i, f in enumerate(self._nf)]).astype(np.int64)
+        dyn_group = np.concatenate([np.full(f, i) for i, f in enumerate(self._nf)]).astype(np.int64)
+        dyn_lag = np.concatenate([np.arange(1, f + 1) for f in self._nf]).astype(np.int64)
+        return col, dyn_group, dyn_lag, self._m
 
     def _split(self, theta):
-        nb = self._nb[0]
-        return np.zeros(0), [theta[:nb]], np.zeros(0), [theta[nb: nb + self.nf]]
+        bs, o = [], 0
+        for b in self._nb:
+            bs.append(theta[o: o + b])
+            o += b
+        fs = []
+        for f in self._nf:
+            fs.append(theta[o: o + f])
+            o += f
+        return np.zeros(0), bs, np.zeros(0), fs
 
     def _names(self):
-        return tuple([f"b{j}" for j in range(self._nb[0])] + [f"f{j}" for j in range(1, self.nf + 1)])
+        names = []
+        for i, b in enumerate(self._nb):
+            names += [f"b{j}" if self._single else f"b{i}_{j}" for j in range(b)]
+        for i, f in enumerate(self._nf):
+            names += [f"f{j}" if self._single else f"f{i}_{j}" for j in range(1, f + 1)]
+        return tuple(names)
 
     def _errors(self, theta, Phi_fix, Y):
-        nb = Phi_fix.shape[1]
-        F = np.concatenate([[1.0], theta[nb:]])
-        w = self._filt(F, Phi_fix @ theta[:nb])
-        Phi = np.hstack([Phi_fix, -lagmat(w, self.nf)])
-        return Y - w, self._filt(F, Phi)
+        _, bs, _, fs = self._split(theta)
+        w_sum = np.zeros(Y.shape[0])
+        psi_b, psi_f = [], []
+        o = 0
+        for b, f in zip(bs, fs):
+            F = np.concatenate([[1.0], f])
+            cols = Phi_fix[:, o: o + b.size]
+            o += b.size
+            w = self._filt(F, cols @ b)
+            w_sum += w
+            psi_b.append(self._filt(F, cols))
+            psi_f.append(self._filt(F, -lagmat(w, f.size)) if f.size else np.zeros((w.size, 0)))
+        return Y - w_sum, np.hstack(psi_b + psi_f)
 
     def fit(self, y, u, *, refine=False, n_iter=30, tol=1e-8):
         r"""Batch fit: Steiglitz–McBride iterations, optionally refined.
 
-        Iteration: filter y and u by :math:`1/\hat F`, fit
+        Iteration (one input): filter y and u by :math:`1/\hat F`, fit
         :math:`\hat F(q)y^F_k = \hat B(q)u^F_k + e_k` by least squares, repeat
         until θ changes by less than ``tol·(1 + |θ|)`` or ``n_iter`` times.
+        Several inputs: one such step per input in turn, on
+        :math:`y - \sum_{j\ne i} \hat B_j/\hat F_j\,u^{(j)}` (each sweep
+        over the inputs counts as one iteration).
 
         Parameters
         ----------
         y : array_like, shape (N,)
-        u : array_like, shape (N,) or (N, 1)
+        u : array_like, shape (N,) or (N, m)
         refine : bool
             Refine by minimising :math:`\sum(y - w(\theta))^2` (default False).
         n_iter : int
@@ -111,17 +159,27 @@ class OE(_PseudoLinearModel):
         y, U = self._data(y, u, fitting=True)
         self._check_inputs(U)
         n_iter = check_int(n_iter, "n_iter", low=1)
-        reg, Phi_fix = self._fixed_regression(y, U, True)
-        nb, nk = self._nb[0], self._nk[0]
-        F = np.ones(1)
+        reg, Phi_fix = self._fixed_regression(y, U, self._single)
+        m = self._m
+        Fs = [np.ones(1) for _ in range(m)]
+        Bs = [np.zeros(1) for _ in range(m)]
+        W = np.zeros((m, y.shape[0]))          # each input's simulated output
+        parts = [None] * m                     # [b_i, f_i] per input
         theta = None
-        for _ in range(n_iter if self.nf else 1):
-            yf = signal.lfilter([1.0], F, y)
-            uf = signal.lfilter([1.0], F, U[:, 0])
-            regf = arx_regressors(yf, uf, self.nf, nb, nk)
-            th = np.asarray(lstsq(regf.Phi, regf.y).theta)
-            new = np.concatenate([th[self.nf:], -th[: self.nf]])   # [b, f]
-            F = np.concatenate([[1.0], new[nb:]])
+        for _ in range(n_iter if self._nd else 1):
+            for i in range(m):
+                nb, nf, nk = self._nb[i], self._nf[i], self._nk[i]
+                target = y - (W.sum(axis=0) - W[i])
+                yf = signal.lfilter([1.0], Fs[i], target)
+                uf = signal.lfilter([1.0], Fs[i], U[:, i])
+                regf = arx_regressors(yf, uf, nf, nb, nk)
+                th = np.asarray(lstsq(regf.Phi, regf.y).theta)
+                b, f = th[nf:], -th[:nf]
+                parts[i] = (b, f)
+                Fs[i] = np.concatenate([[1.0], f])
+                Bs[i] = np.concatenate([np.zeros(nk), b])
+                W[i] = signal.lfilter(Bs[i], Fs[i], U[:, i])
+            new = np.concatenate([p[0] for p in parts] + [p[1] for p in parts])
             done = theta is not None and np.max(np.abs(new - theta)) < tol * (1 + np.max(np.abs(new)))
             theta = new
             if done:

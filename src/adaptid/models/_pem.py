@@ -48,6 +48,13 @@ class _PseudoLinearModel(_PolyModel):
     def _check_inputs(self, U):
         pass
 
+    def _groups(self, nfix):
+        """(col_group, dyn_group, dyn_lag, G) of the recursion: by default one
+        signal formed from all columns, lagged 1 … _nd times."""
+        nd = self._nd
+        return (np.zeros(nfix + nd, dtype=np.int64), np.zeros(nd, dtype=np.int64),
+                np.arange(1, nd + 1, dtype=np.int64), 1)
+
     def _finish(self, theta, Phi_fix, Y, reg):
         self.theta = np.asarray(theta, dtype=np.float64)
         eps, Psi = self._errors(self.theta, Phi_fix, Y)
@@ -77,8 +84,9 @@ class _PseudoLinearModel(_PolyModel):
 
         The regressor of sample k contains signals built from the estimates
         up to k-1 (see the class description), so Φ cannot be precomputed;
-        a numba kernel runs the whole recursion (covariance form, P kept
-        symmetric) with the algorithm of ``estimator``:
+        a numba kernel runs the whole recursion with the algorithm of
+        ``estimator``, on the U-D factors of P as the core estimators do
+        (Bierman's update, so a diffuse prior costs no accuracy):
 
         .. math::
 
@@ -114,7 +122,8 @@ class _PseudoLinearModel(_PolyModel):
             covariance at it.
         """
         reg, Phi_fix = self._prepare(y, u)
-        Th, E, V, theta, P = run_pseudolinear(Phi_fix, reg.y, self._nd, self._alpha,
+        Th, E, V, theta, P = run_pseudolinear(Phi_fix, reg.y, self._groups(Phi_fix.shape[1]),
+                                              self._alpha,
                                               self._beta, self._sgn, estimator)
         theta = self._stable(theta)
         if refine:

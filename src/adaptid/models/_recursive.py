@@ -50,18 +50,27 @@ def estimator_settings(estimator, n):
     return lam, Q, kalman, r2, M, theta, U, D
 
 
-def run_pseudolinear(Phi_fix, Y, nd, alpha, beta, sgn, estimator):
-    """One compiled RELS / PLR pass; returns (Th, E, V, theta, P)."""
+def run_pseudolinear(Phi_fix, Y, groups, alpha, beta, sgn, estimator):
+    """One compiled RELS / PLR pass; returns (Th, E, V, theta, P).
+
+    ``groups = (col_group, dyn_group, dyn_lag, G)`` describes the dynamic
+    columns and the signals they lag (see :func:`pseudolinear_run`).
+    """
     from .._config import DOWNDATE_RTOL
 
+    col_group, dyn_group, dyn_lag, G = groups
+    nd = dyn_group.shape[0]
     n = Phi_fix.shape[1] + nd
     lam, Q, kalman, r2, M, theta, U, D = estimator_settings(estimator, n)
     N = Y.shape[0]
     Th = np.empty((N, n))
     E = np.empty(N)
-    V = np.empty(N)
+    V = np.empty((N, G))
     refused = pseudolinear_run(np.ascontiguousarray(Phi_fix, dtype=np.float64),
-                               np.ascontiguousarray(Y, dtype=np.float64), nd,
+                               np.ascontiguousarray(Y, dtype=np.float64),
+                               np.ascontiguousarray(col_group, dtype=np.int64),
+                               np.ascontiguousarray(dyn_group, dtype=np.int64),
+                               np.ascontiguousarray(dyn_lag, dtype=np.int64),
                                float(alpha), float(beta), float(sgn), theta, U, D,
                                lam, Q, kalman, r2, M, DOWNDATE_RTOL, Th, E, V)
     if refused < 0:
