@@ -8,6 +8,7 @@ from scipy import signal
 from .._validation import check_int
 from ._builders import _per_input
 from ._pem import _PseudoLinearModel, lagmat
+from ._polymodel import check_orders
 
 __all__ = ["OE"]
 
@@ -71,14 +72,8 @@ class OE(_PseudoLinearModel):
     _alpha, _beta, _sgn = 0.0, 1.0, -1.0
 
     def __init__(self, nb, nf, nk=1, *, dt=1.0):
-        if np.ndim(nb) == 0:
-            check_int(nb, "nb", low=1)
-        else:
-            [check_int(v, f"nb[{i}]", low=1) for i, v in enumerate(np.ravel(nb))]
-        if np.ndim(nf) == 0:
-            check_int(nf, "nf", low=0)
-        else:
-            [check_int(v, f"nf[{i}]", low=0) for i, v in enumerate(np.ravel(nf))]
+        check_orders(nb, "nb", low=1)
+        check_orders(nf, "nf", low=0)
         self._init_orders(0, nb, 0, 0, nk, dt)
         self.nf = nf
         self._nf_spec = nf

@@ -30,6 +30,15 @@ class NotFittedError(RuntimeError):
     """Raised when a model is used before ``fit``."""
 
 
+def check_orders(value, name, *, low):
+    """Validate an order given as one integer or one per input (count checked at fit)."""
+    if np.ndim(value) == 0:
+        check_int(value, name, low=low)
+    else:
+        for i, v in enumerate(np.ravel(value)):
+            check_int(v, f"{name}[{i}]", low=low)
+
+
 def _pad_to(p, L):
     out = np.zeros(L)
     out[: p.size] = p
@@ -53,14 +62,8 @@ class _PolyModel:
         self._nb_spec, self._nk_spec = nb, nk
         self.nb, self.nk = nb, nk
         # validate the scalar / per-input specs now (number of inputs known at fit)
-        if np.ndim(nb) == 0:
-            check_int(nb, "nb", low=0)
-        else:
-            [check_int(v, f"nb[{i}]", low=0) for i, v in enumerate(np.ravel(nb))]
-        if np.ndim(nk) == 0:
-            check_int(nk, "nk", low=0)
-        else:
-            [check_int(v, f"nk[{i}]", low=0) for i, v in enumerate(np.ravel(nk))]
+        check_orders(nb, "nb", low=0)
+        check_orders(nk, "nk", low=0)
         self.dt = check_scalar(dt, "dt", low=0.0, low_open=True)
         self.theta = None
 
