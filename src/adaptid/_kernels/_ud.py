@@ -81,6 +81,35 @@ def _bierman_prep(U, D, phi, f, v, NP):
 
 
 @njit(**NJIT_INLINE)
+def _bierman_first(D, r, f, v, b):
+    """Stage 0 of the Bierman update: α₀ = r + f₀v₀, D₀ ← D₀ r/α₀, b₀ = v₀."""
+    a = r + f[0] * v[0]
+    ia = 1.0 / a
+    D[0] = D[0] * (r * ia)
+    b[0] = v[0]
+    return a, ia
+
+
+@njit(**NJIT_INLINE)
+def _bierman_pivot(D, f, v, j, a, ia):
+    """αⱼ = αⱼ₋₁ + fⱼvⱼ, 1/αⱼ, Dⱼ ← Dⱼ αⱼ₋₁/αⱼ; returns (αⱼ, 1/αⱼ, −fⱼ/αⱼ₋₁)."""
+    an = a + f[j] * v[j]
+    ian = 1.0 / an
+    D[j] = D[j] * (a * ian)
+    return an, ian, -f[j] * ia
+
+
+@njit(**NJIT_INLINE)
+def _bierman_column(U, b, j, pj, vj):
+    """Column j: U[i, j] ← U[i, j] + pⱼ bᵢ, bᵢ ← bᵢ + U_old[i, j] vⱼ (i < j); bⱼ = vⱼ."""
+    for i in range(j):
+        u = U[i, j]
+        U[i, j] = u + b[i] * pj
+        b[i] += u * vj
+    b[j] = vj
+
+
+@njit(**NJIT_INLINE)
 def _bierman_apply(U, D, r, f, v, b, NP):
     """Bierman update with weight r (r < 0: removal). b ← Pφ (old P).
 
@@ -91,21 +120,10 @@ def _bierman_apply(U, D, r, f, v, b, NP):
     bⱼ = vⱼ; each αⱼ is inverted once. :func:`_bierman_apply_pairs` is the
     same update, faster and slower to compile.
     """
-    a = r + f[0] * v[0]
-    ia = 1.0 / a
-    D[0] = D[0] * (r * ia)
-    b[0] = v[0]
+    a, ia = _bierman_first(D, r, f, v, b)
     for j in range(1, NP):
-        an = a + f[j] * v[j]
-        ian = 1.0 / an
-        D[j] = D[j] * (a * ian)
-        pj = -f[j] * ia
-        vj = v[j]
-        for i in range(j):
-            u = U[i, j]
-            U[i, j] = u + b[i] * pj
-            b[i] += u * vj
-        b[j] = vj
+        an, ian, pj = _bierman_pivot(D, f, v, j, a, ia)
+        _bierman_column(U, b, j, pj, v[j])
         a = an
         ia = ian
     return a
@@ -120,21 +138,12 @@ def _bierman_apply_pairs(U, D, r, f, v, b, NP):
     the plain RLS kernels. Used by the RLS stream, whose speed is the
     library's headline; the other streams keep :func:`_bierman_apply`.
     """
-    a = r + f[0] * v[0]
-    ia = 1.0 / a
-    D[0] = D[0] * (r * ia)
-    b[0] = v[0]
+    a, ia = _bierman_first(D, r, f, v, b)
     j = 1
     while j + 1 < NP:
-        an = a + f[j] * v[j]
-        ian = 1.0 / an
-        D[j] = D[j] * (a * ian)
-        pj = -f[j] * ia
+        an, ian, pj = _bierman_pivot(D, f, v, j, a, ia)
+        a2, ia2, pj2 = _bierman_pivot(D, f, v, j + 1, an, ian)
         vj = v[j]
-        a2 = an + f[j + 1] * v[j + 1]
-        ia2 = 1.0 / a2
-        D[j + 1] = D[j + 1] * (an * ia2)
-        pj2 = -f[j + 1] * ian
         vj2 = v[j + 1]
         for i in range(j):
             u = U[i, j]
@@ -152,16 +161,8 @@ def _bierman_apply_pairs(U, D, r, f, v, b, NP):
         ia = ia2
         j += 2
     if j < NP:
-        an = a + f[j] * v[j]
-        D[j] = D[j] * (a / an)
-        pj = -f[j] * ia
-        vj = v[j]
-        for i in range(j):
-            u = U[i, j]
-            U[i, j] = u + b[i] * pj
-            b[i] += u * vj
-        b[j] = vj
-        a = an
+        a, ia, pj = _bierman_pivot(D, f, v, j, a, ia)
+        _bierman_column(U, b, j, pj, v[j])
     return a
 
 
