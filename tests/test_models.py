@@ -429,3 +429,44 @@ def test_pseudolinear_recursion_keeps_a_diffuse_prior_accurate(rng, model):
         ols = np.linalg.lstsq(Phi[:k], reg.y[:k], rcond=None)[0]
         worst = max(worst, np.max(np.abs(traj.theta[k - 1] - ols)) / np.max(np.abs(ols)))
     assert worst < 1e-6
+
+
+@pytest.mark.parametrize("make", [
+    lambda n: adaptid.RLS(n, forgetting=adaptid.forgetting.Directional(0.97), P0=100.0),
+    lambda n: adaptid.RLS(n, forgetting=adaptid.forgetting.ConstantTrace(0.95, 50.0, 0.01)),
+    lambda n: adaptid.RLS(n, forgetting=adaptid.forgetting.EFRA(0.5, 0.005, 0.005, 0.95), P0=1.0),
+    lambda n: adaptid.RLS(n, forgetting=adaptid.forgetting.Variable(0.9, 0.1, 200.0)),
+    lambda n: adaptid.RLS(n, forgetting=0.97, P_max=50.0),
+], ids=["directional", "constant_trace", "efra", "variable", "p_max"])
+@pytest.mark.parametrize("model", ["armax", "oe"])
+def test_pseudolinear_recursion_takes_forgetting_strategies(rng, make, model):
+    """Without dynamic columns (nc = 0, nf = 0) the recursion with a strategy
+    is the core RLS with that strategy on the fixed regressors (whose step is
+    checked against the textbook recursions in test_forgetting.py)."""
+    y, u = _arx_data(rng, 400)
+    if model == "armax":
+        m, reg, sign = ARMAX(2, 2, 0), arx_regressors(y, u, 2, 2, 1), np.array([-1, -1, 1, 1])
+    else:
+        m, reg, sign = OE(3, 0, 1), arx_regressors(y, u, 0, 3, 1), 1.0
+    n = reg.Phi.shape[1]
+    traj = m.fit_recursive(y, u, make(n))
+    core = make(n)
+    ref = core.run(reg.Phi * sign, reg.y)
+    np.testing.assert_allclose(traj.theta, ref.theta, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(traj.error, ref.error, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(traj.forgetting, ref.forgetting, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(m.P, core.P, rtol=1e-8, atol=1e-12)
+
+
+def test_armax_with_a_strategy_tracks_a_jump(rng):
+    """RELS with directional forgetting follows a change of the plant."""
+    N = 6000
+    u = rng.standard_normal(N)
+    e = 0.1 * rng.standard_normal(N)
+    y = np.r_[lfilter([0, 1.0, 0.5], [1, -1.5, 0.7], u[:3000]) + lfilter([1, 0.5], [1, -1.5, 0.7], e[:3000]),
+              lfilter([0, 2.0, 0.5], [1, -1.5, 0.7], u[3000:]) + lfilter([1, 0.5], [1, -1.5, 0.7], e[3000:])]
+    m = ARMAX(2, 2, 1, 1)
+    traj = m.fit_recursive(y, u, adaptid.RLS(5, forgetting=adaptid.forgetting.Directional(0.99)))
+    assert abs(traj.theta[-1, 2] - 2.0) < 0.1       # b0 after the change
+    assert abs(traj.theta[2500, 2] - 1.0) < 0.1     # b0 before it
+    assert traj.forgetting.shape == (traj.theta.shape[0],)

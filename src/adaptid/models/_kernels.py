@@ -13,14 +13,14 @@ import numpy as np
 from numba import njit
 
 from .._config import NJIT
-from .._kernels._ud import _bierman_apply, _bierman_prep, _time_update
+from .._kernels._ud import _bierman_apply, _bierman_prep, _strategy_step, _time_update
 
 __all__ = ["pseudolinear_run"]
 
 
 @njit(**NJIT)
 def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn, theta,
-                     U, D, lam, Q, kalman, r2, M, rtol, Th, E, V):
+                     U, D, lam, Q, kalman, r2, M, rtol, mode, fp, pmax, Th, E, V, Lk):
     r"""Recursive pseudo-linear regression on the U-D factors of P.
 
     The regressor of sample k is the fixed columns ``Phi_fix[k]`` followed
@@ -44,7 +44,11 @@ def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn
     window M > 0 the sample k − M is then removed with weight
     :math:`c = \lambda^M` (Bierman with weight −1/c), unless
     :math:`1 - c\,\varphi^T P\varphi <` ``rtol`` (the removal would make P
-    indefinite or nearly so): then it is refused and counted. Finally
+    indefinite or nearly so): then it is refused and counted. With
+    ``mode >= 0`` the measurement update is instead the step of an
+    :mod:`adaptid.forgetting` strategy (or of ``P_max``), exactly as in
+    :class:`adaptid.RLS` (``_strategy_step``), and ``Lk[k]`` receives the λₖ
+    it applied. Finally
     the signals :math:`v_{g,k}` are formed. ``theta``, ``U`` (unit upper
     triangular) and ``D`` are updated in place; ``Th[k]``, ``E[k]``,
     ``V[k, g]`` receive θ after sample k, ε_k and :math:`v_{g,k}`.
@@ -64,6 +68,10 @@ def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn
     v = np.empty(n)
     b = np.empty(n)
     W = np.empty((n, n))
+    Pm = np.empty((n, n))
+    theta2 = theta.reshape((n, 1))
+    ek = np.empty(1)
+    yk = np.empty(1)
     vh = np.zeros((G, L))  # vh[g, l - 1] = v_g[k - l]
     vg = np.empty(G)
     Mb = max(M, 1)
@@ -81,14 +89,21 @@ def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn
         for j in range(n):
             e -= phi[j] * theta[j]
         E[k] = e
-        if lam != 1.0:
+        if mode >= 0:
+            ek[0] = e
+            yk[0] = Y[k]
+            Lk[k] = _strategy_step(theta2, U, D, phi, yk, ek, 1.0, lam, mode, fp, pmax,
+                                   f, v, b, Pm, W, n, 1)
+        else:
+            if lam != 1.0:
+                for i in range(n):
+                    D[i] *= il
+            _bierman_prep(U, D, phi, f, v, n)
+            a = _bierman_apply(U, D, r2, f, v, b, n)
+            g = e / a
             for i in range(n):
-                D[i] *= il
-        _bierman_prep(U, D, phi, f, v, n)
-        a = _bierman_apply(U, D, r2, f, v, b, n)
-        g = e / a
-        for i in range(n):
-            theta[i] += b[i] * g
+                theta[i] += b[i] * g
+            Lk[k] = lam
         if kalman and not _time_update(U, D, Q, W, n):
             return -1
         if M > 0:

@@ -108,8 +108,10 @@ class _PseudoLinearModel(_PolyModel):
         u : array_like, shape (N,) or (N, m)
         estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
             Read, not modified: its options and current θ, P are the
-            starting point. Forgetting must be a constant float here.
-            Default: RLS with θ₀ = 0, P₀ = 10⁴ I, no forgetting.
+            starting point. An RLS may carry a forgetting strategy of
+            :mod:`adaptid.forgetting` or ``P_max``: its step is then the one
+            :class:`~adaptid.RLS` takes, and ``Trajectory.forgetting`` holds
+            the λₖ applied. Default: RLS with θ₀ = 0, P₀ = 10⁴ I, no forgetting.
         refine : bool
             Follow with the prediction-error refinement (see :meth:`fit`).
 
@@ -122,7 +124,7 @@ class _PseudoLinearModel(_PolyModel):
             covariance at it.
         """
         reg, Phi_fix = self._prepare(y, u)
-        Th, E, V, theta, P = run_pseudolinear(Phi_fix, reg.y, self._groups(Phi_fix.shape[1]),
+        Th, E, V, theta, P, Lk = run_pseudolinear(Phi_fix, reg.y, self._groups(Phi_fix.shape[1]),
                                               self._alpha,
                                               self._beta, self._sgn, estimator)
         theta = self._stable(theta)
@@ -130,7 +132,7 @@ class _PseudoLinearModel(_PolyModel):
             theta = self._refine(theta, Phi_fix, reg.y)
         self._finish(theta, Phi_fix, reg.y, reg)
         self.P = P
-        return self._trajectory(Th, E, reg.index, self.names)
+        return self._trajectory(Th, E, reg.index, self.names, Lk)
 
     @staticmethod
     def _filt(den, X):

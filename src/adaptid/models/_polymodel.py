@@ -347,9 +347,9 @@ class _PolyModel:
 
     # -------------------------------------------------------- recursive util
     @staticmethod
-    def _trajectory(theta, error, index, names):
+    def _trajectory(theta, error, index, names, forgetting=None):
         return Trajectory(theta=theta, error=error, skipped=np.zeros(error.shape[0], dtype=bool),
-                          meta={"index": index, "names": names})
+                          forgetting=forgetting, meta={"index": index, "names": names})
 
     def __repr__(self):
         orders = ", ".join(f"{k}={getattr(self, k)}" for k in self._order_names)

@@ -14,7 +14,8 @@ __all__ = ["estimator_settings", "run_pseudolinear"]
 
 
 def estimator_settings(estimator, n):
-    """(λ, Q, kalman, r2, M, θ, U, D) from an RLS / SlidingWindowRLS / KalmanRLS (or defaults).
+    """(λ, Q, kalman, r2, M, θ, U, D, strategy) from an RLS / SlidingWindowRLS /
+    KalmanRLS (or defaults); strategy = (mode, params, P_max), mode −1 for none.
 
     The estimator is read, never modified: its current θ and U-D factors are
     the starting point (θ₀, P₀ for a fresh one), its options the algorithm.
@@ -22,7 +23,8 @@ def estimator_settings(estimator, n):
     from .._estimators import RLS, KalmanRLS, SlidingWindowRLS
 
     if estimator is None:
-        return 1.0, np.zeros((n, n)), False, 1.0, 0, np.zeros(n), np.eye(n), np.full(n, 1e4)
+        return (1.0, np.zeros((n, n)), False, 1.0, 0, np.zeros(n), np.eye(n), np.full(n, 1e4),
+                (-1, np.zeros(1), np.inf))
     if not isinstance(estimator, (RLS, SlidingWindowRLS, KalmanRLS)):
         raise param_error("estimator", "None or an adaptid RLS, SlidingWindowRLS or KalmanRLS",
                           estimator, exc=TypeError)
@@ -36,22 +38,25 @@ def estimator_settings(estimator, n):
     U, D = estimator._ud_views(estimator._S)
     U, D = np.array(U, dtype=np.float64), np.array(D, dtype=np.float64)
     lam, Q, kalman, r2, M = 1.0, np.zeros((n, n)), False, 1.0, 0
+    strategy = (-1, np.zeros(1), np.inf)
     if isinstance(estimator, KalmanRLS):
         Q = np.ascontiguousarray(estimator.process_cov, dtype=np.float64)
         kalman, r2 = True, float(estimator.noise_var)
+    elif isinstance(estimator, SlidingWindowRLS):
+        lam, M = float(estimator.forgetting), int(estimator.window)
     else:
+        if not estimator._fast:  # a forgetting strategy, or P_max
+            strategy = (int(estimator._mode), np.asarray(estimator._fp, dtype=np.float64),
+                        float(estimator._pmax))
         lam = estimator.forgetting
-        if not isinstance(lam, (float, int, np.floating)) or isinstance(lam, bool):
-            raise param_error("estimator.forgetting",
-                              "a constant float λ for the ARMAX/OE recursions", lam, exc=TypeError)
-        lam = float(lam)
-        if isinstance(estimator, SlidingWindowRLS):
-            M = int(estimator.window)
-    return lam, Q, kalman, r2, M, theta, U, D
+        lam = float(lam) if isinstance(lam, (float, int, np.floating)) else 1.0
+    return lam, Q, kalman, r2, M, theta, U, D, strategy
 
 
 def run_pseudolinear(Phi_fix, Y, groups, alpha, beta, sgn, estimator):
-    """One compiled RELS / PLR pass; returns (Th, E, V, theta, P).
+    """One compiled RELS / PLR pass; returns (Th, E, V, theta, P, Lk).
+
+    Lk holds the λₖ a forgetting strategy applied (None without one).
 
     ``groups = (col_group, dyn_group, dyn_lag, G)`` describes the dynamic
     columns and the signals they lag (see :func:`pseudolinear_run`).
@@ -61,18 +66,20 @@ def run_pseudolinear(Phi_fix, Y, groups, alpha, beta, sgn, estimator):
     col_group, dyn_group, dyn_lag, G = groups
     nd = dyn_group.shape[0]
     n = Phi_fix.shape[1] + nd
-    lam, Q, kalman, r2, M, theta, U, D = estimator_settings(estimator, n)
+    lam, Q, kalman, r2, M, theta, U, D, (mode, fp, pmax) = estimator_settings(estimator, n)
     N = Y.shape[0]
     Th = np.empty((N, n))
     E = np.empty(N)
     V = np.empty((N, G))
+    Lk = np.empty(N)
     refused = pseudolinear_run(np.ascontiguousarray(Phi_fix, dtype=np.float64),
                                np.ascontiguousarray(Y, dtype=np.float64),
                                np.ascontiguousarray(col_group, dtype=np.int64),
                                np.ascontiguousarray(dyn_group, dtype=np.int64),
                                np.ascontiguousarray(dyn_lag, dtype=np.int64),
                                float(alpha), float(beta), float(sgn), theta, U, D,
-                               lam, Q, kalman, r2, M, DOWNDATE_RTOL, Th, E, V)
+                               lam, Q, kalman, r2, M, DOWNDATE_RTOL, mode, fp, pmax,
+                               Th, E, V, Lk)
     if refused < 0:
         raise FloatingPointError("the Kalman time update P + Q lost positive definiteness "
                                  "(P overflowed?)")
@@ -81,4 +88,4 @@ def run_pseudolinear(Phi_fix, Y, groups, alpha, beta, sgn, estimator):
                       "or nearly so (the window then holds older samples too)",
                       DefinitenessLossWarning, stacklevel=3)
     P = (U * D) @ U.T
-    return Th, E, V, theta, 0.5 * (P + P.T)
+    return Th, E, V, theta, 0.5 * (P + P.T), (Lk if mode >= 0 else None)
