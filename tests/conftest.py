@@ -1,7 +1,13 @@
 import os
 
-import numpy as np
-import pytest
+# pytest-xdist runs one worker per core: one BLAS thread per worker, so that
+# the workers' OpenBLAS pools do not oversubscribe the cores (set before numpy
+# loads OpenBLAS; an explicit setting in the environment wins).
+for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
 # Long-running soak tests are opt-in: `pytest -m soak`. CI runs shortened versions.
 SOAK = os.environ.get("ADAPTID_SOAK") == "1"
