@@ -43,7 +43,8 @@ from ._exceptions import StateFileError
 
 FORMAT = 2  # 2: U stored by columns in the state vector (1: by rows; not read)
 _MAGIC = "adaptid-state"
-_ARRAYS = ("theta0", "P0", "state", "process_cov", "C", "d", "outer_theta0", "outer_P0")
+_WRAPPER_ARRAYS = ("C", "d", "outer_theta0", "outer_P0")  # ConstrainedRLS's own arrays
+_ARRAYS = ("theta0", "P0", "state", "process_cov") + _WRAPPER_ARRAYS
 _WRAPPERS = ("ConstrainedRLS",)  # estimators stored as an inner core estimator + extras
 
 
@@ -226,9 +227,9 @@ def load_state(path):
     core = header.get("inner_estimator") if wrapped else kind
     if not isinstance(kind, str) or core not in _classes():
         raise StateFileError(f"{path}: unknown estimator type {kind!r}")
-    extra = {"C", "d", "outer_theta0", "outer_P0"}
-    if not wrapped and set(arrays) & extra:
-        raise StateFileError(f"{path}: unexpected arrays {sorted(set(arrays) & extra)}")
+    if not wrapped and set(arrays) & set(_WRAPPER_ARRAYS):
+        raise StateFileError(f"{path}: unexpected arrays "
+                             f"{sorted(set(arrays) & set(_WRAPPER_ARRAYS))}")
     try:
         opts = header["options"]
         if not isinstance(opts, dict):
