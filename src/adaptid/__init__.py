@@ -34,6 +34,8 @@ _LAZY = {
     "SlidingWindowRLS": "adaptid._estimators",
     "KalmanRLS": "adaptid._estimators",
     "Trajectory": "adaptid._trajectory",
+    "estimator": "adaptid.estimators",
+    "recursive_fit_stats": "adaptid.estimators",
     "lstsq": "adaptid._lstsq",
     "LSResult": "adaptid._lstsq",
     "constrained_lstsq": "adaptid.constrained",
@@ -49,7 +51,7 @@ _LAZY = {
     "cusum_squares": "adaptid.diagnostics",
 }
 _SUBMODULES = (
-    "forgetting", "constrained", "continuous", "models", "diagnostics",
+    "estimators", "forgetting", "constrained", "continuous", "models", "diagnostics",
     "datasets", "fleet", "sklearn",
 )
 
