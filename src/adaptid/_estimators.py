@@ -416,6 +416,30 @@ class _RecursiveEstimator:
                 return np.einsum("b...i,bi->b...", phi, theta)
             return np.einsum("b...i,bij->b...j", phi, theta)
 
+    # ------------------------------------------------------- engine hooks
+    def kernel_settings(self):
+        """The algorithm and current state in the form a compiled recursion takes.
+
+        A public hook for recursions built on the estimators (the models'
+        pseudo-linear regressions, ``ConstrainedRLS``): they read the
+        estimator's algorithm and state here instead of its private fields.
+
+        Returns
+        -------
+        KernelSettings
+            Copies of θ (n, p) and the U-D factors of P, and the options:
+            ``method`` ("rls", "window", "kalman"), ``forgetting`` (constant λ,
+            1.0 under a strategy), ``strategy_mode`` (−1: none or exponential
+            without ``P_max``), ``strategy_params``, ``P_max`` (inf: none),
+            ``window`` (0: none), ``process_cov``, ``noise_var``.
+        """
+        from .estimators._settings import KernelSettings
+        self._check_single("kernel_settings")
+        n, p = self.n_params, self.n_outputs
+        U, D = self._ud_views(self._S)
+        theta = self._S[: n * p].reshape(n, p).copy()
+        return KernelSettings.of(self, theta, np.array(U), np.array(D))
+
     # ------------------------------------------------------- state round trip
     def _options(self) -> dict:
         return {"nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}

@@ -9,8 +9,9 @@ recursive fit.
 from .._estimators import KalmanRLS, RLS, SlidingWindowRLS
 from .._trajectory import Trajectory
 from ._factory import METHODS, estimator, method_of, method_options
+from ._settings import KernelSettings
 from ._stats import RecursiveFitStats, recursive_fit_stats, sample_factors
 
 __all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS", "Trajectory", "estimator", "METHODS",
            "method_of", "method_options", "recursive_fit_stats", "RecursiveFitStats",
-           "sample_factors"]
+           "sample_factors", "KernelSettings"]

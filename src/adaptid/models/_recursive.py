@@ -20,7 +20,7 @@ def estimator_settings(estimator, n):
     The estimator is read, never modified: its current θ and U-D factors are
     the starting point (θ₀, P₀ for a fresh one), its options the algorithm.
     """
-    from .._estimators import RLS, KalmanRLS, SlidingWindowRLS
+    from ..estimators import KalmanRLS, RLS, SlidingWindowRLS
 
     if estimator is None:
         return (1.0, np.zeros((n, n)), False, 1.0, 0, np.zeros(n), np.eye(n), np.full(n, 1e4),
@@ -31,26 +31,17 @@ def estimator_settings(estimator, n):
     if estimator.n_params != n:
         raise param_error("estimator", f"an estimator with n_params={n} (the model's parameters)",
                           f"<n_params={estimator.n_params}>")
-    if estimator.batch_size is not None or not estimator._single:
+    if estimator.batch_size is not None or estimator.n_outputs != 1 or \
+            np.ndim(estimator.theta) != 1:
         raise param_error("estimator", "a single-stream, single-output estimator",
                           "<a batched or multi-output estimator>")
-    theta = np.array(estimator.theta, dtype=np.float64)
-    U, D = estimator._ud_views(estimator._S)
-    U, D = np.array(U, dtype=np.float64), np.array(D, dtype=np.float64)
-    lam, Q, kalman, r2, M = 1.0, np.zeros((n, n)), False, 1.0, 0
-    strategy = (-1, np.zeros(1), np.inf)
-    if isinstance(estimator, KalmanRLS):
-        Q = np.ascontiguousarray(estimator.process_cov, dtype=np.float64)
-        kalman, r2 = True, float(estimator.noise_var)
-    elif isinstance(estimator, SlidingWindowRLS):
-        lam, M = float(estimator.forgetting), int(estimator.window)
-    else:
-        if not estimator._fast:  # a forgetting strategy, or P_max
-            strategy = (int(estimator._mode), np.asarray(estimator._fp, dtype=np.float64),
-                        float(estimator._pmax))
-        lam = estimator.forgetting
-        lam = float(lam) if isinstance(lam, (float, int, np.floating)) else 1.0
-    return lam, Q, kalman, r2, M, theta, U, D, strategy
+    ks = estimator.kernel_settings()
+    theta = np.ascontiguousarray(ks.theta[:, 0])
+    U, D = np.ascontiguousarray(ks.U), np.ascontiguousarray(ks.D)
+    strategy = (ks.strategy_mode, np.asarray(ks.strategy_params, dtype=np.float64), ks.P_max)
+    kalman = ks.method == "kalman"
+    return (ks.forgetting, np.ascontiguousarray(ks.process_cov), kalman, ks.noise_var,
+            ks.window, theta, U, D, strategy)
 
 
 def run_pseudolinear(Phi_fix, Y, groups, alpha, beta, sgn, estimator):
