@@ -95,7 +95,7 @@ def test_round_trip_is_exact_and_resumes_bit_for_bit(tmp_path, rng, kind, p, bat
     _same(est, back)
     assert np.array_equal(back.theta, est.theta) and np.array_equal(back.P, est.P)
     # the generic loader gives the same
-    _same(est, adaptid._state.load_state(path))
+    _same(est, adaptid.estimators.load_state(path))
     # resuming: the future after a stop/restart equals the future without one
     Phi, y = _stream(rng, 30, p, batch)
     if batch is None:

@@ -13,7 +13,7 @@ import pytest
 
 import adaptid
 from adaptid import RLS, StateFileError
-from adaptid._state import _digest
+from adaptid.estimators._statefile import _digest
 from adaptid.constrained import ConstrainedRLS, constrained_lstsq
 
 N_PARAMS = 5

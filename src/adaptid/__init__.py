@@ -30,10 +30,10 @@ __version__ = "0.1.0"
 # Public names are imported on first use, so that `import adaptid` stays cheap
 # (numba, scipy and the optional extras load only when needed).
 _LAZY = {
-    "RLS": "adaptid._estimators",
-    "SlidingWindowRLS": "adaptid._estimators",
-    "KalmanRLS": "adaptid._estimators",
-    "Trajectory": "adaptid._trajectory",
+    "RLS": "adaptid.estimators",
+    "SlidingWindowRLS": "adaptid.estimators",
+    "KalmanRLS": "adaptid.estimators",
+    "Trajectory": "adaptid.estimators",
     "estimator": "adaptid.estimators",
     "recursive_fit_stats": "adaptid.estimators",
     "lstsq": "adaptid._lstsq",
@@ -45,7 +45,7 @@ _LAZY = {
     "multi_objective_lstsq": "adaptid.constrained",
     "lq_estimate_cv": "adaptid.constrained",
     "ConstrainedRLS": "adaptid.constrained",
-    "load_state": "adaptid._state",
+    "load_state": "adaptid.estimators",
     "recursive_residuals": "adaptid.diagnostics",
     "cusum": "adaptid.diagnostics",
     "cusum_squares": "adaptid.diagnostics",

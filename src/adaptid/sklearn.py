@@ -165,7 +165,7 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
         return np.hstack([X, np.ones((X.shape[0], 1))])
 
     def _make_core(self, n_features, n_outputs):
-        from ._estimators import KalmanRLS, RLS, SlidingWindowRLS
+        from .estimators import KalmanRLS, RLS, SlidingWindowRLS
         if not isinstance(self.fit_intercept, (bool, np.bool_)):
             raise param_error("fit_intercept", "a bool", self.fit_intercept, exc=TypeError)
         method = self._resolved_method()

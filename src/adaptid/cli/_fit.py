@@ -21,7 +21,7 @@ N_CHUNKS = 200
 
 def _load_resume(path):
     from adaptid._exceptions import StateFileError
-    from adaptid._state import load_state
+    from adaptid.estimators import load_state
 
     try:
         return load_state(path)

@@ -69,3 +69,11 @@ __all__ = [
     "open_loop",
     "piecewise_polyfit",
 ]
+
+
+def _register():
+    from ..estimators import register_state_class
+    register_state_class("ConstrainedRLS", ConstrainedRLS)
+
+
+_register()

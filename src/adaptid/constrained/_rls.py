@@ -87,9 +87,12 @@ class ConstrainedRLS:
     True
     """
 
+    #: state-dict keys stored as arrays of a state file, and their names there
+    _STATE_FILE_ARRAYS = {"C": "C", "d": "d", "theta0": "outer_theta0", "P0": "outer_P0"}
+
     def __init__(self, n_params, C, d, *, forgetting=1.0, theta0=None, P0=1e4,
                  nan_policy="raise"):
-        from .._estimators import RLS  # numba-compiled core, loaded on first use
+        from ..estimators import RLS  # numba-compiled core, loaded on first use
 
         n = check_int(n_params, "n_params", low=1)
         C = as_float_array(C, "C", ndim=2, copy=True)
@@ -203,7 +206,7 @@ class ConstrainedRLS:
         return out
 
     def _to_theta(self, traj):
-        from .._trajectory import Trajectory
+        from ..estimators import Trajectory
         th = self._from_z(traj.theta)
         return Trajectory(theta=th, error=traj.error, skipped=traj.skipped,
                           n_rebuilds=traj.n_rebuilds)
@@ -311,7 +314,7 @@ class ConstrainedRLS:
     @classmethod
     def from_state(cls, state: dict) -> "ConstrainedRLS":
         """Rebuild from :meth:`get_state`'s dict (exact round trip)."""
-        from .._estimators import RLS
+        from ..estimators import RLS
         if not isinstance(state, dict):
             raise param_error("state", "a dict from get_state()", state, exc=TypeError)
         if state.get("estimator") != "ConstrainedRLS":
@@ -340,14 +343,14 @@ class ConstrainedRLS:
         estimator on the reduced parameters plus C, d and the prior. Written
         to a temporary name and renamed, so a crash never leaves half a file.
         """
-        from .._state import save_state
+        from ..estimators import save_state
         save_state(self, path)
 
     @classmethod
     def load_state(cls, path) -> "ConstrainedRLS":
         """Read a file written by :meth:`save_state`; raises StateFileError if it is damaged."""
         from .._exceptions import StateFileError
-        from .._state import load_state
+        from ..estimators import load_state
         est = load_state(path)
         if not isinstance(est, cls):
             raise StateFileError(f"{path}: holds the state of a {type(est).__name__}, "

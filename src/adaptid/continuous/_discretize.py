@@ -117,7 +117,7 @@ class Discretization:
             per-sample λₖ or wₖ, pass ``weights=self.weights`` and
             ``forgetting=self.forgetting`` to its ``run`` (as :meth:`run` does).
         """
-        from .._estimators import RLS, SlidingWindowRLS
+        from ..estimators import RLS, SlidingWindowRLS
         n = self.theta0.shape[0]
         lam = float(self.forgetting) if np.ndim(self.forgetting) == 0 else 1.0
         if self.window is None:

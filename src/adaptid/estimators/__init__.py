@@ -1,17 +1,30 @@
-"""Layer 2: the recursive estimators, their results, state files and factory.
+"""Layer 2: the recursive estimators on one engine, their results, state files, factory.
 
-Every estimator (``RLS``, ``SlidingWindowRLS``, ``KalmanRLS``) shares one
-engine; :func:`estimator` maps a method name to one of them, and
-:func:`recursive_fit_stats` is the one rule for σ̂² and standard errors of a
-recursive fit.
+* :class:`RLS`, :class:`SlidingWindowRLS`, :class:`KalmanRLS` — algorithms
+  on the engine :class:`RecursiveEstimator` (update / run / run_batched /
+  run_segments / predict / state files, written once);
+* :func:`estimator` — the one map from a method name to an estimator;
+* :func:`recursive_fit_stats` — the one rule for σ̂² and standard errors;
+* :class:`Trajectory`, :class:`SegmentResult` — results of the runs;
+* :func:`load_state` / :func:`save_state` — the safe state-file container.
 """
 
-from .._estimators import KalmanRLS, RLS, SlidingWindowRLS
-from .._trajectory import Trajectory
+from ._engine import RecursiveEstimator
 from ._factory import METHODS, estimator, method_of, method_options
+from ._kalman import KalmanRLS
+from ._rls import RLS
+from ._segments import SegmentResult
 from ._settings import KernelSettings
+from ._statefile import load_state, register_state_class, save_state
 from ._stats import RecursiveFitStats, recursive_fit_stats, sample_factors
+from ._trajectory import Trajectory
+from ._window import SlidingWindowRLS
 
-__all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS", "Trajectory", "estimator", "METHODS",
-           "method_of", "method_options", "recursive_fit_stats", "RecursiveFitStats",
-           "sample_factors", "KernelSettings"]
+for _cls in (RLS, SlidingWindowRLS, KalmanRLS):
+    register_state_class(_cls.__name__, _cls)
+del _cls
+
+__all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS", "RecursiveEstimator", "Trajectory",
+           "SegmentResult", "estimator", "METHODS", "method_of", "method_options",
+           "recursive_fit_stats", "RecursiveFitStats", "sample_factors", "KernelSettings",
+           "load_state", "save_state", "register_state_class"]

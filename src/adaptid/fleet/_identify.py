@@ -36,7 +36,7 @@ def _need(module):
 
 def _make_estimator(method, n, nan_policy, options):
     """The prototype estimator of every group (validates the options early)."""
-    from .._estimators import RLS, KalmanRLS, SlidingWindowRLS
+    from ..estimators import RLS, KalmanRLS, SlidingWindowRLS
     allowed = _OPTIONS[method]
     for key in options:
         if key not in allowed:

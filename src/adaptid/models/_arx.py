@@ -145,7 +145,7 @@ class ARX(_PolyModel):
             ``meta["index"][i]``). The model takes the final estimate,
             ``cov`` = σ̂² P (meaningful without forgetting).
         """
-        from .._estimators import RLS, KalmanRLS, SlidingWindowRLS
+        from ..estimators import RLS, KalmanRLS, SlidingWindowRLS
         from .._validation import param_error
 
         reg, Phi = self._prepare(y, u)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from .._trajectory import Trajectory
+from ..estimators import Trajectory
 from .._validation import as_float_array, check_choice, check_int, check_scalar, param_error
 from ._builders import _as_inputs, _per_input, arx_regressors
 

@@ -5,10 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
 
-from ._config import NJIT_PARALLEL
-from ._validation import param_error
+from .._kernels._segments import segment_stats
+from .._validation import param_error
 
 __all__ = ["SegmentResult"]
 
@@ -77,21 +76,3 @@ def check_offsets(offsets, N: int) -> np.ndarray:
     if np.any(np.diff(arr) < 0):
         raise param_error("offsets", "nondecreasing", "<a decreasing pair>")
     return arr
-
-
-@njit(**NJIT_PARALLEL)
-def segment_stats(E, skipped, offsets, n_skip, sse):
-    """Per segment: skipped samples and Σ ε² over the used ones (parallel over segments)."""
-    p = E.shape[1]
-    for g in prange(offsets.shape[0] - 1):
-        c = 0
-        for j in range(p):
-            sse[g, j] = 0.0
-        for k in range(offsets[g], offsets[g + 1]):
-            if skipped[k]:
-                c += 1
-            else:
-                for j in range(p):
-                    sse[g, j] += E[k, j] * E[k, j]
-        n_skip[g] = c
-

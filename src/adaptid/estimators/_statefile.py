@@ -10,13 +10,14 @@ A NumPy ``.npz`` archive read with ``allow_pickle=False`` holding
   "adaptid_version", "checksum"}``;
 * ``theta0``, ``P0``, ``state`` and, for KalmanRLS, ``process_cov`` — float64.
 
-A :class:`~adaptid.constrained.ConstrainedRLS` is stored as its inner
-:class:`~adaptid.RLS` on the reduced parameters (the fields above, with
-``"inner_estimator": "RLS"``), plus ``"estimator": "ConstrainedRLS"`` and
-``"outer": {"n_params", "format", "options"}`` in the header and the arrays
-``C``, ``d``, ``outer_theta0`` and ``outer_P0``. Reading rebuilds it through
-``ConstrainedRLS.from_state``, which re-derives the null-space basis from
-``C`` and checks that the inner estimator fits it.
+An estimator that wraps a core one (e.g. :class:`~adaptid.constrained.ConstrainedRLS`,
+whose ``get_state()`` has an ``"inner"`` core state) is stored as its inner
+estimator (the fields above, with ``"inner_estimator"``), plus its own
+``"estimator"`` name and ``"outer": {"n_params", "format", "options"}`` in the
+header and the arrays its class names in ``_STATE_FILE_ARRAYS``. Reading
+rebuilds it through that class's ``from_state``. Which class reads a file is
+looked up by name in a registry (:func:`register_state_class`): this module
+knows the container format and nothing of the classes.
 
 ``checksum`` is the SHA-256 of the header without the checksum (canonical
 JSON, sorted keys) followed by the raw bytes, dtype and shape of every array
@@ -39,23 +40,43 @@ from pathlib import Path
 
 import numpy as np
 
-from ._exceptions import StateFileError
+from .._exceptions import StateFileError
 
 FORMAT = 2  # 2: U stored by columns in the state vector (1: by rows; not read)
 _MAGIC = "adaptid-state"
-_WRAPPER_ARRAYS = ("C", "d", "outer_theta0", "outer_P0")  # ConstrainedRLS's own arrays
-_ARRAYS = ("theta0", "P0", "state", "process_cov") + _WRAPPER_ARRAYS
-_WRAPPERS = ("ConstrainedRLS",)  # estimators stored as an inner core estimator + extras
+_ARRAYS = ("theta0", "P0", "state", "process_cov")  # the arrays of a core estimator
+# An estimator that wraps a core one (its get_state() dict has "inner") is
+# stored as the inner estimator plus its own arrays; its class names them in
+# ``_STATE_FILE_ARRAYS`` ({key of its state dict: array name in the file}).
+
+
+#: name in a state file -> the class that reads it (``from_state``). Classes
+#: register themselves (:func:`register_state_class`); a name not registered
+#: yet is looked up in the module that defines it, by name, on first use.
+_REGISTRY: dict = {}
+_DEFINED_IN = {"RLS": "adaptid.estimators", "SlidingWindowRLS": "adaptid.estimators",
+               "KalmanRLS": "adaptid.estimators", "ConstrainedRLS": "adaptid.constrained"}
+
+
+def register_state_class(name: str, cls) -> None:
+    """Make ``load_state`` build files whose header names ``name`` with ``cls.from_state``."""
+    _REGISTRY[name] = cls
+
+
+def _lookup(name):
+    if name not in _REGISTRY and name in _DEFINED_IN:
+        import importlib
+        importlib.import_module(_DEFINED_IN[name])  # registers its classes
+    return _REGISTRY.get(name)
 
 
 def _classes():
-    from ._estimators import KalmanRLS, RLS, SlidingWindowRLS
-    return {"RLS": RLS, "SlidingWindowRLS": SlidingWindowRLS, "KalmanRLS": KalmanRLS}
+    return {k: _lookup(k) for k in ("RLS", "SlidingWindowRLS", "KalmanRLS")}
 
 
 def estimator_from_state(state: dict):
     """Build an estimator from a :meth:`get_state` dict (exact round trip)."""
-    from ._validation import param_error
+    from .._validation import param_error
     try:
         kind = state["estimator"]
         fmt = state["format"]
@@ -109,14 +130,15 @@ def _digest(header: dict, arrays: dict) -> str:
 
 def _payload(st: dict):
     """(header, arrays) of a get_state() dict; the header without checksum."""
-    from . import __version__
-    if st.get("estimator") in _WRAPPERS:
+    from .. import __version__
+    if "inner" in st:
         header, arrays = _payload(st["inner"])
         header["inner_estimator"] = header["estimator"]
         header["estimator"] = st["estimator"]
         header["outer"] = {"n_params": st["n_params"], "format": st["format"],
                            "options": dict(st["options"])}
-        arrays.update(C=st["C"], d=st["d"], outer_theta0=st["theta0"], outer_P0=st["P0"])
+        names = _lookup(st["estimator"])._STATE_FILE_ARRAYS
+        arrays.update({names[key]: st[key] for key in names})
         return header, arrays
     opts = dict(st["options"])
     arrays = {"theta0": st["theta0"], "P0": st["P0"], "state": st["state"]}
@@ -216,20 +238,20 @@ def load_state(path):
     if fmt != FORMAT:
         raise StateFileError(f"{path}: unknown state format {fmt!r}")
     checksum = header.pop("checksum", None)
-    if set(arrays) - set(_ARRAYS):
-        raise StateFileError(f"{path}: unexpected arrays {sorted(set(arrays) - set(_ARRAYS))}")
+    kind = header.get("estimator")
+    cls = _lookup(kind) if isinstance(kind, str) else None
+    own = getattr(cls, "_STATE_FILE_ARRAYS", {}) if "inner_estimator" in header else {}
+    allowed = set(_ARRAYS) | set(own.values())
+    if set(arrays) - allowed:
+        raise StateFileError(f"{path}: unexpected arrays {sorted(set(arrays) - allowed)}")
     if any(a.dtype != np.float64 for a in arrays.values()):
         raise StateFileError(f"{path}: arrays must be float64")
     if checksum != _digest(header, arrays):
         raise StateFileError(f"{path}: checksum mismatch (the file was altered or damaged)")
-    kind = header.get("estimator")
-    wrapped = kind in _WRAPPERS
+    wrapped = bool(own)
     core = header.get("inner_estimator") if wrapped else kind
-    if not isinstance(kind, str) or core not in _classes():
+    if cls is None or core not in _classes() or ("inner_estimator" in header) != wrapped:
         raise StateFileError(f"{path}: unknown estimator type {kind!r}")
-    if not wrapped and set(arrays) & set(_WRAPPER_ARRAYS):
-        raise StateFileError(f"{path}: unexpected arrays "
-                             f"{sorted(set(arrays) & set(_WRAPPER_ARRAYS))}")
     try:
         opts = header["options"]
         if not isinstance(opts, dict):
@@ -249,10 +271,9 @@ def load_state(path):
         outer = header["outer"]
         if not isinstance(outer, dict) or not isinstance(outer.get("options"), dict):
             raise TypeError("outer must be an object with options")
-        from .constrained import ConstrainedRLS
-        return ConstrainedRLS.from_state({
+        return cls.from_state({
             "estimator": kind, "format": outer["format"], "n_params": outer["n_params"],
-            "C": arrays["C"], "d": arrays["d"], "theta0": arrays["outer_theta0"],
-            "P0": arrays["outer_P0"], "options": dict(outer["options"]), "inner": state})
+            "options": dict(outer["options"]), "inner": state,
+            **{key: arrays[name] for key, name in own.items()}})
     except (ValueError, TypeError, KeyError, IndexError, AttributeError) as err:
         raise StateFileError(f"{path}: inconsistent state ({err})") from None

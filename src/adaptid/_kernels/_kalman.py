@@ -1,0 +1,100 @@
+r"""Kalman filter for a random-walk parameter, on U-D factors.
+
+Entry points as in :mod:`._rls`, with ``opt = [windup threshold, R₂,
+skip]`` and ``mat = R₁`` (n × n); ``lam`` and ``Lk`` are unused. Per sample
+(Ljung & Söderström 1983, eq. 2.114): the measurement update (Bierman, weight
+R₂/w), then the time update ``U D Uᵀ + R₁`` re-factorised. A non-finite
+sample gets the time update only when ``skip`` is set (``nan_policy="skip"``)
+and leaves the state untouched otherwise (the caller then raises).
+"""
+
+import numpy as np
+from numba import njit, prange
+
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply, _bierman_prep, _d_below, \
+    _finite_row, _gain_step, _one_sample, _prior_errors, _segment_start, _store, \
+    _time_update, _views
+from ._dims import dim
+
+
+@njit(**NJIT_INLINE)
+def _kalman_step(theta, U, D, phi, y, r2, w, Q, e, f, v, b, W, NP, p):
+    _prior_errors(theta, phi, y, e, NP, p)
+    if w > 0.0:
+        _bierman_prep(U, D, phi, f, v, NP)
+        a = _bierman_apply(U, D, r2 / w, f, v, b, NP)
+        _gain_step(theta, b, a, e, NP, p)
+    return _time_update(U, D, Q, W, NP)
+
+
+
+@njit(**NJIT_INLINE)
+def _kalman_stream(S, Phi, Y, w, Th, E, skipped, opt, Q, NP, p):
+    dthr = opt[0]
+    r2 = opt[1]
+    skip = opt[2] != 0.0
+    theta, U, D = _views(S, NP, p)
+    f = np.empty(NP)
+    v = np.empty(NP)
+    b = np.empty(NP)
+    W = np.empty((NP, NP))
+    store = Th.shape[0] == Phi.shape[0]
+    bad = -1
+    for k in range(Phi.shape[0]):
+        phi = Phi[k]
+        y = Y[k]
+        if _finite_row(phi, y, NP, p):
+            ok = _kalman_step(theta, U, D, phi, y, r2, w[k], Q, E[k], f, v, b, W, NP, p)
+        else:
+            skipped[k] = True
+            for j in range(p):
+                E[k, j] = np.nan
+            ok = _time_update(U, D, Q, W, NP) if skip else True
+        if bad < 0 and not (ok and _d_below(D, dthr, NP)):
+            bad = k
+        if store:
+            _store(Th, k, theta, NP, p)
+    return bad
+
+
+@njit(**NJIT)
+def kalman_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
+    """One Kalman step through the same compiled code as :func:`kalman_run`."""
+    NP = dim(ntag)
+    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
+    bad = _kalman_stream(S, Phi, Y, w1, Th, E, skipped, opt, mat, NP, dim(ptag))
+    status = 0
+    if skipped[0]:
+        status |= SKIPPED
+    if bad >= 0:
+        status |= NONPOSITIVE
+    return status
+
+
+@njit(**NJIT)
+def kalman_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+    """N Kalman steps; returns the first sample at which P lost definiteness or
+    a pivot passed the windup threshold, or -1."""
+    return _kalman_stream(S, Phi, Y, w, Th, E, skipped, opt, mat, dim(ntag), dim(ptag))
+
+
+@njit(**NJIT_PARALLEL)
+def kalman_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+    NP = dim(ntag)
+    p = dim(ptag)
+    for s in prange(Phi.shape[0]):
+        codes[s] = _kalman_stream(S[s], Phi[s], Y[s], w[s], Th[s], E[s], skipped[s], opt, mat,
+                                  NP, p)
+
+
+@njit(**NJIT_PARALLEL)
+def kalman_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat, codes,
+                        ntag, ptag):
+    """G Kalman streams back to back, each from S0 (see :func:`._rls.rls_run_segments`)."""
+    NP = dim(ntag)
+    p = dim(ptag)
+    for g in prange(offsets.shape[0] - 1):
+        a, z, S = _segment_start(S0, Sout, offsets, g)
+        codes[g] = _kalman_stream(S, Phi[a:z], Y[a:z], w[a:z], Th[a:z], E[a:z], skipped[a:z],
+                                  opt, mat, NP, p)

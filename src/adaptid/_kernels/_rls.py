@@ -1,0 +1,143 @@
+r"""RLS with exponential forgetting, weights and prior (ridge): the headline stream.
+
+Entry points share one signature with every other algorithm (see
+:mod:`adaptid.estimators._engine`)::
+
+    update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag) -> status bits
+    run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag) -> code
+    run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag)
+    run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat,
+                 codes, ntag, ptag)
+
+``opt = [windup threshold]``; ``mat`` and ``Lk`` are unused; the code is the
+first sample at which a pivot of D left (0, threshold), or −1. ``ntag`` and
+``ptag`` give n and p (compile-time constants for tuple tags, :mod:`._dims`).
+Per sample (Ljung & Söderström 1983, eqs. 2.19–2.20, on U-D factors):
+ε = y − φᵀθ, D ← D/λ, Bierman update with weight 1/w, θ ← θ + Pφ ε/α.
+"""
+
+import numpy as np
+from numba import njit, prange
+
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply_pairs, _bierman_prep, _copy_factor, \
+    _one_sample, _segment_start, _views
+from ._dims import dim
+from ._scratch import scratch, scratch2, small_scratch
+
+@njit(**NJIT_INLINE)
+def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
+    # Written flat, with every branch at the top of the loop body: a branch
+    # around the unrolled update (e.g. `if w > 0`) made LLVM spill the state
+    # and the loop ran 4 x slower (measured at n = 4). The factor is worked
+    # on in a stack copy (see _scratch): LLVM then knows that the stores to
+    # the trajectory cannot change it and stops reloading it after each one.
+    theta, Us, Ds = _views(S, NP, p)
+    U = scratch2(NP).T  # by columns, as in S
+    D = scratch(NP)
+    _copy_factor(Us, Ds, U, D, NP)
+    f = small_scratch(NP)
+    v = small_scratch(NP)
+    b = small_scratch(NP)
+    e = small_scratch(p)
+    store = Th.shape[0] == Phi.shape[0]
+    bad = -1
+    for k in range(Phi.shape[0]):
+        phi = Phi[k]
+        ok = True  # all of the row finite; tested without branches
+        for i in range(NP):
+            ok &= phi[i] - phi[i] == 0.0
+        for j in range(p):
+            ok &= Y[k, j] - Y[k, j] == 0.0
+        wk = w[k]
+        inside = True  # pivots in (0, dthr)
+        if ok and wk > 0.0:
+            for j in range(p):
+                s = Y[k, j]
+                for i in range(NP):
+                    s -= phi[i] * theta[i, j]
+                e[j] = s
+                E[k, j] = s
+            il = 1.0 / lam[k]
+            for i in range(NP):
+                D[i] *= il
+            _bierman_prep(U, D, phi, f, v, NP)
+            a = _bierman_apply_pairs(U, D, 1.0 / wk, f, v, b, NP)
+            ia = 1.0 / a
+            for i in range(NP):
+                g = b[i] * ia
+                for j in range(p):
+                    theta[i, j] += g * e[j]
+            for i in range(NP):
+                inside &= (D[i] > 0.0) & (D[i] < dthr)
+        elif ok:  # weight 0: the sample only advances the forgetting
+            for j in range(p):
+                s = Y[k, j]
+                for i in range(NP):
+                    s -= phi[i] * theta[i, j]
+                E[k, j] = s
+            il = 1.0 / lam[k]
+            for i in range(NP):
+                D[i] *= il
+                inside &= (D[i] > 0.0) & (D[i] < dthr)
+        else:
+            skipped[k] = True
+            for j in range(p):
+                E[k, j] = np.nan
+        if bad < 0 and not inside:
+            bad = k
+        if store:
+            for i in range(NP):
+                for j in range(p):
+                    Th[k, i, j] = theta[i, j]
+    _copy_factor(U, D, Us, Ds, NP)
+    return bad
+
+
+
+@njit(**NJIT)
+def rls_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
+    """One RLS step through the same compiled code as :func:`rls_run`.
+
+    Returns status bits; the state is untouched when SKIPPED.
+    """
+    NP = dim(ntag)
+    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
+    bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, opt[0], NP, dim(ptag))
+    if skipped[0]:
+        return SKIPPED
+    if bad >= 0:
+        return NONPOSITIVE
+    return 0
+
+
+@njit(**NJIT)
+def rls_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+    """N RLS steps; returns the first sample index where a pivot D_i lost
+    positivity or passed the windup threshold ``opt[0]``, or -1."""
+    return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, opt[0], dim(ntag), dim(ptag))
+
+
+@njit(**NJIT_PARALLEL)
+def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+    """B independent RLS streams in parallel; ``codes[b]`` as :func:`rls_run` returns."""
+    NP = dim(ntag)
+    p = dim(ptag)
+    for s in prange(Phi.shape[0]):
+        codes[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
+                               opt[0], NP, p)
+
+
+@njit(**NJIT_PARALLEL)
+def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat, codes,
+                     ntag, ptag):
+    """G streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0.
+
+    Parallel over segments; segment g is bit for bit :func:`rls_run` from S0.
+    """
+    NP = dim(ntag)
+    p = dim(ptag)
+    for g in prange(offsets.shape[0] - 1):
+        a, z, S = _segment_start(S0, Sout, offsets, g)
+        codes[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                               skipped[a:z], opt[0], NP, p)

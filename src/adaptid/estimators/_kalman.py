@@ -1,0 +1,76 @@
+r"""Kalman filter for a random-walk parameter."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import _kernels
+from .._validation import as_float_array, check_int, check_scalar, param_error, symmetrised
+from ._engine import RecursiveEstimator
+
+__all__ = ["KalmanRLS"]
+
+
+class KalmanRLS(RecursiveEstimator):
+    r"""Kalman filter for a random-walk parameter.
+
+    Model: :math:`\theta_k = \theta_{k-1} + \nu_k`, :math:`E\,\nu\nu^T = R_1`,
+    :math:`y_k = \varphi_k^T\theta_k + e_k`, :math:`E\,e^2 = R_2`. Per sample
+    (recursive-identification note, Kalman filter for a random walk; Ljung &
+    Söderström 1983, eq. 2.114):
+
+    .. math::
+
+        K_k = \frac{P_{k-1}\varphi_k}{R_2/w_k + \varphi_k^T P_{k-1}\varphi_k},\quad
+        \hat\theta_k = \hat\theta_{k-1} + K_k\varepsilon_k,\quad
+        P_k = P_{k-1} - K_k\varphi_k^T P_{k-1} + R_1 .
+
+    This is the measurement update followed by the time update ("update then
+    predict"). The measurement update is Bierman's; the time update forms
+    ``U D Uᵀ + R₁`` and re-factorises it. Under ``nan_policy="skip"`` a
+    missing sample gets the time update only (P grows by R₁, θ unchanged).
+
+    Parameters
+    ----------
+    n_params : int
+    process_cov : float or array_like, shape (n, n)
+        R₁ ≥ 0: a scalar q means q·I; a matrix must be symmetric positive
+        semi-definite.
+    noise_var : float
+        R₂ > 0 (default 1).
+    theta0, P0, nan_policy, n_outputs
+        As for :class:`RLS`.
+    """
+
+    _kind = "KalmanRLS"
+
+    def __init__(self, n_params, *, process_cov, noise_var=1.0, theta0=None, P0=1e4,
+                 nan_policy="raise", n_outputs=None, windup_threshold=None):
+        n = check_int(n_params, "n_params", low=1)
+        if np.ndim(process_cov) == 0:
+            q = check_scalar(process_cov, "process_cov", low=0.0)
+            Q = np.eye(n) * q
+        else:
+            Q = symmetrised(as_float_array(process_cov, "process_cov", shape=(n, n)),
+                            "process_cov")
+            ev = np.linalg.eigvalsh(Q)
+            if ev[0] < -100 * n * np.finfo(float).eps * max(abs(ev[-1]), 1e-300):
+                raise param_error("process_cov", "positive semi-definite",
+                                  f"<smallest eigenvalue {ev[0]:.3g}>")
+        self.process_cov = Q
+        self.noise_var = check_scalar(noise_var, "noise_var", low=0.0, low_open=True)
+        super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
+                         n_outputs=n_outputs, windup_threshold=windup_threshold)
+
+    def _options(self):
+        return {"process_cov": self.process_cov.copy(), "noise_var": self.noise_var,
+                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
+
+    # what the engine needs to know
+    def _entries(self):
+        return _kernels.KALMAN
+
+    def _kernel_options(self):
+        skip = 1.0 if self._nan_policy == "skip" else 0.0
+        return (np.array([self._windup_threshold, self.noise_var, skip]),
+                np.ascontiguousarray(self.process_cov))
