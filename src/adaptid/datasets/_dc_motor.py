@@ -176,6 +176,34 @@ def dc_motor(seed=0, *, duration=60.0, dt=1e-3, noise=True):
         import pandas as pd
     except ImportError as err:  # pragma: no cover - exercised without pandas
         raise ImportError("dc_motor needs pandas: pip install 'adaptid[pandas]'") from err
+    seed, duration, dt, n = _check_arguments(seed, duration, dt)
+    noise = bool(noise)
+    prm = MOTOR_PARAMETERS
+    rng = np.random.default_rng(seed)
+    voltage = _excitation(rng, n, dt, prm)
+    k_load = int(round(duration / 2.0 / dt))
+    states = _motor_states(voltage, dt, k_load, prm)
+    # sensors: always draw the random numbers, so that the excitation does
+    # not depend on `noise`
+    angle0 = rng.uniform(0.0, 2.0 * np.pi)
+    e_i = rng.standard_normal(n)
+    if noise:
+        current, speed = _sensors(states, angle0, e_i, dt, prm)
+    else:
+        current, speed = states[:, 0].copy(), states[:, 1].copy()
+
+    time = np.arange(n) * dt
+    attrs = {"load_time": float(k_load * dt), "dt": dt, "seed": seed}
+    data = pd.DataFrame({"time": time, "voltage": voltage, "current": current,
+                         "speed": speed})
+    truth = _truth(time, states[:, 2], k_load, prm)
+    data.attrs.update(attrs)
+    truth.attrs.update(attrs)
+    return data, truth
+
+
+def _check_arguments(seed, duration, dt):
+    """Seed (a non-negative int), duration and dt (positive), and the number of samples."""
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
         raise param_error("seed", "a non-negative integer", seed, exc=TypeError)
     if seed < 0:
@@ -185,49 +213,44 @@ def dc_motor(seed=0, *, duration=60.0, dt=1e-3, noise=True):
     n = int(round(duration / dt))
     if n < 10:
         raise param_error("duration", f"at least 10 samples of dt={dt:g} s", duration)
-    noise = bool(noise)
+    return int(seed), duration, dt, n
 
-    prm = MOTOR_PARAMETERS
-    rng = np.random.default_rng(int(seed))
-    voltage = _excitation(rng, n, dt, prm)
-    load_time = duration / 2.0
-    k_load = int(round(load_time / dt))
+
+def _motor_states(voltage, dt, k_load, prm):
+    """(N, 4) states [i, ω, T, angle] at the sample instants, from rest at ambient temperature.
+
+    RK4 sub-steps of at most 50 µs (compiled kernel of :mod:`adaptid._kernels._simulators`).
+    """
     n_sub = max(1, int(math.ceil(dt / 5e-5 - 1e-9)))
-    p = _param_vector(prm)
     x0 = np.array([0.0, 0.0, prm["T_amb"], 0.0])
-    states = np.empty((n, 4))
-    simulate_dc_motor(voltage, dt, n_sub, k_load, p, x0, states)
+    states = np.empty((voltage.shape[0], 4))
+    simulate_dc_motor(voltage, dt, n_sub, k_load, _param_vector(prm), x0, states)
+    return states
 
-    time = np.arange(n) * dt
-    current = states[:, 0].copy()
-    speed = states[:, 1].copy()
-    # sensors: always draw the random numbers, so that the excitation does
-    # not depend on `noise`
-    angle0 = rng.uniform(0.0, 2.0 * np.pi)
-    e_i = rng.standard_normal(n)
-    if noise:
-        lsb = 2.0 * prm["i_range"] / 2.0 ** prm["adc_bits"]
-        current = np.clip(np.round((current + prm["i_noise"] * e_i) / lsb) * lsb,
-                          -prm["i_range"], prm["i_range"] - lsb)
-        step = 2.0 * np.pi / prm["encoder_counts"]
-        counts = np.floor((states[:, 3] + angle0) / step)
-        speed = np.empty(n)
-        speed[0] = 0.0
-        speed[1:] = np.diff(counts) * (step / dt)
 
-    temperature = states[:, 2]
+def _sensors(states, angle0, e_i, dt, prm):
+    """Measured current (noisy, 12-bit ADC) and speed (encoder counts differenced over dt)."""
+    lsb = 2.0 * prm["i_range"] / 2.0 ** prm["adc_bits"]
+    current = np.clip(np.round((states[:, 0] + prm["i_noise"] * e_i) / lsb) * lsb,
+                      -prm["i_range"], prm["i_range"] - lsb)
+    step = 2.0 * np.pi / prm["encoder_counts"]
+    counts = np.floor((states[:, 3] + angle0) / step)
+    speed = np.empty(states.shape[0])
+    speed[0] = 0.0
+    speed[1:] = np.diff(counts) * (step / dt)
+    return current, speed
+
+
+def _truth(time, temperature, k_load, prm):
+    """The true parameters at each sample (R follows the winding temperature)."""
+    import pandas as pd
+
+    n = time.shape[0]
     R = prm["R0"] * (1.0 + prm["alpha"] * (temperature - prm["T_amb"]))
     loaded = np.arange(n) >= k_load
     ones = np.ones(n)
-    attrs = {"load_time": float(k_load * dt), "dt": dt,
-             "seed": int(seed)}
-    data = pd.DataFrame({"time": time, "voltage": voltage, "current": current,
-                         "speed": speed})
-    truth = pd.DataFrame({
+    return pd.DataFrame({
         "time": time, "R": R, "L": prm["L"] * ones, "Ke": prm["Ke"] * ones,
         "Kt": prm["Ke"] * ones, "J": np.where(loaded, prm["J1"], prm["J0"]),
         "B": np.where(loaded, prm["B1"], prm["B0"]), "tau_c": prm["tau_c"] * ones,
         "tau_0": prm["tau_0"] * ones})
-    data.attrs.update(attrs)
-    truth.attrs.update(attrs)
-    return data, truth
