@@ -3,6 +3,9 @@ r"""Continuous-time TLSM algorithms 1–4 and 1'–4' integrated as ODEs."""
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -17,7 +20,7 @@ from .._validation import (
     param_error,
 )
 from ._result import TLSMResult
-from ._signals import Signal, as_signal, check_algorithm, make_weighting
+from ._signals import Signal, Weighting, as_signal, check_algorithm, make_weighting
 
 __all__ = ["integrate"]
 
@@ -185,14 +188,57 @@ def integrate(v, y, t_eval, *, algorithm, t_n, theta0, Q0=None, alpha=None, lamb
     >>> bool(np.allclose(res.theta[-1], [2.0, -1.0], atol=1e-8))
     True
     """
+    p = _validate(v, y, t_eval, algorithm=algorithm, t_n=t_n, theta0=theta0, Q0=Q0,
+                  alpha=alpha, lambda1=lambda1, lambda2=lambda2, f=f, h=h, past=past,
+                  breakpoints=breakpoints, rtol=rtol, atol=atol, method=method)
+    lay = _Layout.of(p.n, p.W.uses_ell)
+    solver = _SegmentSolver(p, lay)
+    z, Q_init = _initial_state(p, lay, solver)
+    Z = _main_phase(p, solver, z)
+    theta, Q = _solve_outputs(Z, p.n, lay.m, lay.iu0, lay.iu1)
+    theta[0], Q[0] = p.theta0, Q_init
+    return TLSMResult(t=p.t_eval.copy(), theta=theta, Q=Q,
+                      info={"kind": f"continuous algorithm {p.alg}{'' if p.windowed else chr(39)}",
+                            "nfev": solver.nfev, "n_segments": solver.n_seg,
+                            "initialisation": "exact (eq. 32)" if p.ps is not None else "usual"})
+
+
+# ------------------------------------------------------------------ validation
+
+@dataclass(frozen=True, eq=False)
+class _Problem:
+    """The validated arguments of :func:`integrate` and the quantities derived from them."""
+
+    alg: int
+    t_eval: np.ndarray
+    t_n: float | None
+    theta0: np.ndarray
+    n: int
+    rtol: float
+    atol: float
+    method: str
+    vs: Signal                 # v(t)
+    ys: Signal                 # y(t)
+    bps: np.ndarray            # the user's breakpoints
+    W: Weighting
+    ps: Signal | None          # the past regressor of eq. 32, or None (usual initialisation)
+    past_y: Callable[[float], float] | None  # y on [t0 - t_n, t0) consistent with theta0
+    Q0: np.ndarray | None
+    t0: float
+    t_end: float
+    t_d: float                 # where the data begin
+    tiny: float                # times closer than this are one breakpoint
+
+    @property
+    def windowed(self):
+        return self.t_n is not None
+
+
+def _validate(v, y, t_eval, *, algorithm, t_n, theta0, Q0, alpha, lambda1, lambda2, f, h, past,
+              breakpoints, rtol, atol, method) -> _Problem:
+    """Check every argument (in the order the checks always ran) and derive the set-up."""
     alg = check_algorithm(algorithm)
-    t_eval = as_float_array(t_eval, "t_eval", ndim=1)
-    if t_eval.shape[0] < 2:
-        raise param_error("t_eval", "strictly increasing with at least 2 entries", t_eval)
-    if np.any(np.diff(t_eval) <= 0.0):
-        i = int(np.flatnonzero(np.diff(t_eval) <= 0.0)[0])
-        raise param_error("t_eval", "strictly increasing with at least 2 entries",
-                          f"<t_eval[{i + 1}]={t_eval[i + 1]!r} after t_eval[{i}]={t_eval[i]!r}>")
+    t_eval = _check_t_eval(t_eval)
     if t_n is not None:
         t_n = check_scalar(t_n, "t_n", low=0.0, low_open=True)
     theta0 = as_float_array(theta0, "theta0", ndim=1, copy=True)
@@ -211,8 +257,29 @@ def integrate(v, y, t_eval, *, algorithm, t_n, theta0, Q0=None, alpha=None, lamb
     W = make_weighting(alg, alpha=alpha, lambda1=lambda1, lambda2=lambda2, f=f, h=h, t_n=t_n,
                        grid=t_eval, breakpoints=bps)
     t0, t_end = float(t_eval[0]), float(t_eval[-1])
+    ps, Q0 = _check_initialisation(past, Q0, n, t0, t_n)
+    t_d = t0 - t_n if ps is not None else t0          # where the data begin
+    scale = max(abs(t_d), abs(t_end), t_end - t_d)
+    return _Problem(alg=alg, t_eval=t_eval, t_n=t_n, theta0=theta0, n=n, rtol=rtol, atol=atol,
+                    method=method, vs=vs, ys=ys, bps=bps, W=W, ps=ps,
+                    past_y=_consistent_past_output(theta0, ps), Q0=Q0, t0=t0, t_end=t_end,
+                    t_d=t_d, tiny=_TINY * scale)
 
-    ps = None
+
+def _check_t_eval(t_eval):
+    """Output times: a strictly increasing float vector of at least 2 entries."""
+    t_eval = as_float_array(t_eval, "t_eval", ndim=1)
+    if t_eval.shape[0] < 2:
+        raise param_error("t_eval", "strictly increasing with at least 2 entries", t_eval)
+    if np.any(np.diff(t_eval) <= 0.0):
+        i = int(np.flatnonzero(np.diff(t_eval) <= 0.0)[0])
+        raise param_error("t_eval", "strictly increasing with at least 2 entries",
+                          f"<t_eval[{i + 1}]={t_eval[i + 1]!r} after t_eval[{i}]={t_eval[i]!r}>")
+    return t_eval
+
+
+def _check_initialisation(past, Q0, n, t0, t_n):
+    """The exact (``past``, eq. 32) or the usual (``Q0``) initialisation: exactly one of them."""
     if past is not None:
         if t_n is None:
             raise param_error("past", "None when t_n is None (algorithms 1'–4' have no "
@@ -220,137 +287,11 @@ def integrate(v, y, t_eval, *, algorithm, t_n, theta0, Q0=None, alpha=None, lamb
         if Q0 is not None:
             raise param_error("Q0", "None when past is given (eq. 32 fixes Q(t0) from the "
                               "past data)", Q0)
-        ps = _past_signal(past, n, t0, t_n)
-    else:
-        if Q0 is None:
-            raise param_error("Q0", "given (a positive scalar or an SPD matrix) unless past "
-                              "is given", Q0)
-        Q0 = check_spd(Q0, "Q0", n)
-
-    windowed = t_n is not None
-    t_d = t0 - t_n if ps is not None else t0          # where the data begin
-    scale = max(abs(t_d), abs(t_end), t_end - t_d)
-    tiny = _TINY * scale
-
-    iu0, iu1 = np.triu_indices(n)
-    m = iu0.shape[0]
-    ell = W.uses_ell
-    size = m + n + (1 if ell else 0)
-    l1 = W.lambda1
-    theta0_ = theta0
-
-    def past_y(t):
-        return float(theta0_ @ ps(t))
-
-    def rhs_factory(a, b, cur_v, cur_y, remove, del_v, del_y):
-        if b - a > 8.0 * tiny:
-            lo_c, hi_c = a + 4.0 * tiny, b - 4.0 * tiny
-        else:
-            lo_c = hi_c = 0.5 * (a + b)
-        f_now, h_of, f_leaving = W.f_now, W.h, W.f_leaving
-
-        def rhs(t, z):
-            tc = lo_c if t < lo_c else (hi_c if t > hi_c else t)
-            vv = cur_v(tc)
-            fw = f_now(tc)
-            hh = h_of(tc)
-            dz = np.empty(size)
-            dz[:m] = hh * z[:m] + fw * (vv[iu0] * vv[iu1])
-            dz[m:m + n] = hh * z[m:m + n] + (fw * cur_y(tc)) * vv
-            if remove:
-                tau = tc - t_n
-                vn = del_v(tau)
-                fl = f_leaving(tc, tau, z[-1] if ell else 0.0)
-                dz[:m] -= fl * (vn[iu0] * vn[iu1])
-                dz[m:m + n] -= (fl * del_y(tau)) * vn
-            if ell:
-                dz[-1] = l1(tc) - (l1(tc - t_n) if remove else 0.0)
-            return dz
-
-        return rhs
-
-    nfev = 0
-    n_seg = 0
-
-    def advance(z, a, b, cur_v, cur_y, remove, del_v, del_y, t_out):
-        nonlocal nfev, n_seg
-        rhs = rhs_factory(a, b, cur_v, cur_y, remove, del_v, del_y)
-        sol = solve_ivp(rhs, (a, b), z, method=method, rtol=rtol, atol=atol,
-                        dense_output=t_out.shape[0] > 0)
-        nfev += sol.nfev
-        n_seg += 1
-        if sol.status != 0:
-            raise RuntimeError(f"integrate: solve_ivp failed on [{a:.10g}, {b:.10g}]: "
-                               f"{sol.message}")
-        z_end = sol.y[:, -1].copy()
-        if not np.isfinite(z_end).all():
-            raise param_error("v, y and the weighting", f"finite on [{a:.10g}, {b:.10g}]",
-                              "<non-finite values in the integrated R, b>")
-        inner = sol.sol(t_out).T if t_out.shape[0] else np.empty((0, size))
-        return z_end, inner
-
-    # ---------------------------------------------------------- initial state
-    z = np.zeros(size)
-    if ps is not None:
-        # eq. 32: R(t0) = ∫_{t0−tn}^{t0} f(t0, s) v vᵀ ds, as the solution at t0
-        # of the growing-window ODE started from R = 0 at t0 − tn.
-        pts = [bps, W.breakpoints(), ps.breakpoints]
-        ends = _segment_ends(t_d, t0, pts, tiny)
-        for a, b in zip(ends[:-1], ends[1:]):
-            z, _ = advance(z, a, b, ps, past_y, False, None, None, np.empty(0))
-        R_init = _unpack(z[:m], n, iu0, iu1)
-        try:
-            c = sla.cho_factor(R_init)
-        except np.linalg.LinAlgError:
-            raise param_error("past", "a regressor on [t0 - t_n, t0) that makes Q(t0)^-1 of "
-                              "eq. 32 non-singular", "<a singular initial information "
-                              "matrix>") from None
-        z[m:m + n] = R_init @ theta0
-        Q_init = sla.cho_solve(c, np.eye(n))
-        Q_init = 0.5 * (Q_init + Q_init.T)
-    else:
-        R_init = sla.cho_solve(sla.cho_factor(Q0), np.eye(n))
-        R_init = 0.5 * (R_init + R_init.T)
-        z[:m] = R_init[iu0, iu1]
-        z[m:m + n] = R_init @ theta0
-        Q_init = Q0
-
-    # ------------------------------------------------------------- main phase
-    pts = [bps, W.breakpoints(), vs.breakpoints, ys.breakpoints]
-    if windowed:
-        pts += [bps + t_n, W.breakpoints() + t_n, vs.breakpoints + t_n,
-                ys.breakpoints + t_n, np.array([t0 + t_n])]
-        if ps is not None:
-            pts.append(ps.breakpoints + t_n)
-    ends = _segment_ends(t0, t_end, pts, tiny)
-    # each output time is either (within `tiny` of) a segment end or inside one segment
-    seg_of = np.searchsorted(ends, t_eval, side="right") - 1
-    right = np.minimum(seg_of + 1, ends.shape[0] - 1)
-    near_left = np.abs(t_eval - ends[seg_of]) <= tiny
-    near_right = np.abs(ends[right] - t_eval) <= tiny
-    end_idx = np.where(near_left, seg_of, np.where(near_right, right, -1))
-    at_end = end_idx >= 0
-
-    Z = np.empty((t_eval.shape[0], size))
-    Z[0] = z
-    for j, (a, b) in enumerate(zip(ends[:-1], ends[1:])):
-        inside = np.flatnonzero((seg_of == j) & ~at_end)
-        mid = 0.5 * (a + b)
-        remove = windowed and (mid - t_n > t_d)
-        if remove and ps is not None and mid - t_n < t0:
-            del_v, del_y = ps, past_y
-        else:
-            del_v, del_y = vs, ys
-        z, inner = advance(z, a, b, vs, ys, remove, del_v, del_y, t_eval[inside])
-        Z[inside] = inner
-        Z[at_end & (end_idx == j + 1)] = z
-
-    theta, Q = _solve_outputs(Z, n, m, iu0, iu1)
-    theta[0], Q[0] = theta0, Q_init
-    return TLSMResult(t=t_eval.copy(), theta=theta, Q=Q,
-                      info={"kind": f"continuous algorithm {alg}{'' if windowed else chr(39)}",
-                            "nfev": nfev, "n_segments": n_seg,
-                            "initialisation": "exact (eq. 32)" if ps is not None else "usual"})
+        return _past_signal(past, n, t0, t_n), None
+    if Q0 is None:
+        raise param_error("Q0", "given (a positive scalar or an SPD matrix) unless past "
+                          "is given", Q0)
+    return None, check_spd(Q0, "Q0", n)
 
 
 def _past_signal(past, n, t0, t_n) -> Signal:
@@ -366,6 +307,133 @@ def _past_signal(past, n, t0, t_n) -> Signal:
     return as_signal(arr, "past", grid=grid, shape=(n,))
 
 
+def _consistent_past_output(theta0, ps):
+    """The past output of eq. 32, y(s) = θ₀ᵀ v(s) on [t0 − tn, t0) (None without ``past``)."""
+    if ps is None:
+        return None
+
+    def past_y(t):
+        return float(theta0 @ ps(t))
+
+    return past_y
+
+
+# --------------------------------------------------- the ODE of R and b, solved
+
+class _Layout(NamedTuple):
+    """The integrated state z = [upper triangle of R (m) | b (n) | ℓ (algorithm 4 only)]."""
+
+    n: int
+    m: int
+    iu0: np.ndarray
+    iu1: np.ndarray
+    ell: bool
+    size: int
+
+    @classmethod
+    def of(cls, n, ell):
+        iu0, iu1 = np.triu_indices(n)
+        m = iu0.shape[0]
+        return cls(n, m, iu0, iu1, ell, m + n + (1 if ell else 0))
+
+
+def _make_rhs(lay, W, t_n, tiny, a, b, cur_v, cur_y, remove, del_v, del_y):
+    """Right-hand side of the R, b (and ℓ) ODE on the segment [a, b] (eqs. 8, 11).
+
+    The signals are read strictly inside the segment (4·tiny from its ends),
+    so that a held signal is never read on the wrong side of its jump.
+    ``remove`` adds the removal term of the sample leaving the window,
+    read from ``del_v``, ``del_y`` at t − tₙ.
+    """
+    if b - a > 8.0 * tiny:
+        lo_c, hi_c = a + 4.0 * tiny, b - 4.0 * tiny
+    else:
+        lo_c = hi_c = 0.5 * (a + b)
+    f_now, h_of, f_leaving = W.f_now, W.h, W.f_leaving
+    l1 = W.lambda1
+    n, m, iu0, iu1, ell, size = lay
+
+    def rhs(t, z):
+        tc = lo_c if t < lo_c else (hi_c if t > hi_c else t)
+        vv = cur_v(tc)
+        fw = f_now(tc)
+        hh = h_of(tc)
+        dz = np.empty(size)
+        dz[:m] = hh * z[:m] + fw * (vv[iu0] * vv[iu1])
+        dz[m:m + n] = hh * z[m:m + n] + (fw * cur_y(tc)) * vv
+        if remove:
+            tau = tc - t_n
+            vn = del_v(tau)
+            fl = f_leaving(tc, tau, z[-1] if ell else 0.0)
+            dz[:m] -= fl * (vn[iu0] * vn[iu1])
+            dz[m:m + n] -= (fl * del_y(tau)) * vn
+        if ell:
+            dz[-1] = l1(tc) - (l1(tc - t_n) if remove else 0.0)
+        return dz
+
+    return rhs
+
+
+class _SegmentSolver:
+    """:func:`scipy.integrate.solve_ivp` from one restart to the next, counting the work."""
+
+    def __init__(self, p: _Problem, lay: _Layout):
+        self.p = p
+        self.lay = lay
+        self.nfev = 0
+        self.n_seg = 0
+
+    def advance(self, z, a, b, cur_v, cur_y, remove, del_v, del_y, t_out):
+        """State at b from z at a, and the states at the times ``t_out`` inside (a, b)."""
+        p = self.p
+        rhs = _make_rhs(self.lay, p.W, p.t_n, p.tiny, a, b, cur_v, cur_y, remove, del_v, del_y)
+        sol = solve_ivp(rhs, (a, b), z, method=p.method, rtol=p.rtol, atol=p.atol,
+                        dense_output=t_out.shape[0] > 0)
+        self.nfev += sol.nfev
+        self.n_seg += 1
+        if sol.status != 0:
+            raise RuntimeError(f"integrate: solve_ivp failed on [{a:.10g}, {b:.10g}]: "
+                               f"{sol.message}")
+        z_end = sol.y[:, -1].copy()
+        if not np.isfinite(z_end).all():
+            raise param_error("v, y and the weighting", f"finite on [{a:.10g}, {b:.10g}]",
+                              "<non-finite values in the integrated R, b>")
+        inner = sol.sol(t_out).T if t_out.shape[0] else np.empty((0, self.lay.size))
+        return z_end, inner
+
+
+# ------------------------------------------------------------- initial state
+
+def _initial_state(p: _Problem, lay: _Layout, solver: _SegmentSolver):
+    """The state z at t0 and Q(t0): from ``past`` (eq. 32) or from ``Q0``."""
+    n, m, iu0, iu1 = lay.n, lay.m, lay.iu0, lay.iu1
+    z = np.zeros(lay.size)
+    if p.ps is None:
+        R_init = sla.cho_solve(sla.cho_factor(p.Q0), np.eye(n))
+        R_init = 0.5 * (R_init + R_init.T)
+        z[:m] = R_init[iu0, iu1]
+        z[m:m + n] = R_init @ p.theta0
+        return z, p.Q0
+    # eq. 32: R(t0) = ∫_{t0−tn}^{t0} f(t0, s) v vᵀ ds, as the solution at t0
+    # of the growing-window ODE started from R = 0 at t0 − tn.
+    pts = [p.bps, p.W.breakpoints(), p.ps.breakpoints]
+    ends = _segment_ends(p.t_d, p.t0, pts, p.tiny)
+    for a, b in zip(ends[:-1], ends[1:]):
+        z, _ = solver.advance(z, a, b, p.ps, p.past_y, False, None, None, np.empty(0))
+    R_init = _unpack(z[:m], n, iu0, iu1)
+    try:
+        c = sla.cho_factor(R_init)
+    except np.linalg.LinAlgError:
+        raise param_error("past", "a regressor on [t0 - t_n, t0) that makes Q(t0)^-1 of "
+                          "eq. 32 non-singular", "<a singular initial information "
+                          "matrix>") from None
+    z[m:m + n] = R_init @ p.theta0
+    Q_init = sla.cho_solve(c, np.eye(n))
+    return z, 0.5 * (Q_init + Q_init.T)
+
+
+# ---------------------------------------------------------------- main phase
+
 def _segment_ends(lo, hi, point_sets, tiny):
     """Sorted restart instants in [lo, hi]; points closer than `tiny` are one."""
     pts = np.concatenate([np.asarray(p, dtype=float).ravel() for p in point_sets]) \
@@ -378,6 +446,54 @@ def _segment_ends(lo, hi, point_sets, tiny):
     ends.append(hi)
     return np.asarray(ends)
 
+
+def _main_segment_ends(p: _Problem):
+    """Restart instants in [t0, t_end]: every jump of the signals, and shifted by tₙ."""
+    pts = [p.bps, p.W.breakpoints(), p.vs.breakpoints, p.ys.breakpoints]
+    if p.windowed:
+        t_n = p.t_n
+        pts += [p.bps + t_n, p.W.breakpoints() + t_n, p.vs.breakpoints + t_n,
+                p.ys.breakpoints + t_n, np.array([p.t0 + t_n])]
+        if p.ps is not None:
+            pts.append(p.ps.breakpoints + t_n)
+    return _segment_ends(p.t0, p.t_end, pts, p.tiny)
+
+
+def _output_slots(ends, t_eval, tiny):
+    """For each output time: its segment, and the index of the segment end it sits on (or −1).
+
+    Each output time is either (within ``tiny`` of) a segment end or inside one segment.
+    """
+    seg_of = np.searchsorted(ends, t_eval, side="right") - 1
+    right = np.minimum(seg_of + 1, ends.shape[0] - 1)
+    near_left = np.abs(t_eval - ends[seg_of]) <= tiny
+    near_right = np.abs(ends[right] - t_eval) <= tiny
+    end_idx = np.where(near_left, seg_of, np.where(near_right, right, -1))
+    return seg_of, end_idx
+
+
+def _main_phase(p: _Problem, solver: _SegmentSolver, z):
+    """Integrate from t0 to t_end, segment by segment; the state z at every output time."""
+    ends = _main_segment_ends(p)
+    seg_of, end_idx = _output_slots(ends, p.t_eval, p.tiny)
+    at_end = end_idx >= 0
+    Z = np.empty((p.t_eval.shape[0], solver.lay.size))
+    Z[0] = z
+    for j, (a, b) in enumerate(zip(ends[:-1], ends[1:])):
+        inside = np.flatnonzero((seg_of == j) & ~at_end)
+        mid = 0.5 * (a + b)
+        remove = p.windowed and (mid - p.t_n > p.t_d)
+        if remove and p.ps is not None and mid - p.t_n < p.t0:
+            del_v, del_y = p.ps, p.past_y
+        else:
+            del_v, del_y = p.vs, p.ys
+        z, inner = solver.advance(z, a, b, p.vs, p.ys, remove, del_v, del_y, p.t_eval[inside])
+        Z[inside] = inner
+        Z[at_end & (end_idx == j + 1)] = z
+    return Z
+
+
+# ------------------------------------------------------------- result assembly
 
 def _unpack(r, n, iu0, iu1):
     R = np.zeros((n, n))

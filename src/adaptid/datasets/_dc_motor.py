@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from .._kernels._simulators import DC_MOTOR_PARAMETER_ORDER, simulate_dc_motor
 from .._validation import check_scalar, param_error
 
 __all__ = ["dc_motor", "MOTOR_PARAMETERS"]
@@ -36,113 +36,10 @@ MOTOR_PARAMETERS = {
     "encoder_counts": 16384,  # counts per revolution (4096 lines, ×4 decoding)
 }
 
-# index of each parameter in the kernel's parameter vector
-_R0, _ALPHA, _TAMB, _L, _KE, _KT, _J0, _J1, _B0, _B1, _TC, _T0, _CTH, _RTH = range(14)
-
-
-@njit(cache=True)
-def _deriv(x, v, mode, p, J, B):
-    """Right-hand side with the friction direction ``mode`` ∈ {-1, 0, 1} frozen.
-
-    ``mode = 0`` is the stuck state (ω held at zero by static friction).
-    """
-    i, w, T = x[0], x[1], x[2]
-    R = p[_R0] * (1.0 + p[_ALPHA] * (T - p[_TAMB]))
-    di = (v - R * i - p[_KE] * w) / p[_L]
-    if mode == 0:
-        dw = 0.0
-    else:
-        dw = (p[_KT] * i - B * w - p[_TC] * mode - p[_T0]) / J
-    dT = (R * i * i - (T - p[_TAMB]) / p[_RTH]) / p[_CTH]
-    return di, dw, dT, w
-
-
-@njit(cache=True)
-def _rk4(x, h, v, mode, p, J, B, out, tmp):
-    """One classical Runge–Kutta step of length h with frozen friction mode."""
-    k1 = _deriv(x, v, mode, p, J, B)
-    for j in range(4):
-        tmp[j] = x[j] + 0.5 * h * k1[j]
-    k2 = _deriv(tmp, v, mode, p, J, B)
-    for j in range(4):
-        tmp[j] = x[j] + 0.5 * h * k2[j]
-    k3 = _deriv(tmp, v, mode, p, J, B)
-    for j in range(4):
-        tmp[j] = x[j] + h * k3[j]
-    k4 = _deriv(tmp, v, mode, p, J, B)
-    for j in range(4):
-        out[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-
-
-@njit(cache=True)
-def _mode_of(x, p):
-    """Direction of motion; at ω = 0 the static-friction (Karnopp) test."""
-    w = x[1]
-    if w > 0.0:
-        return 1
-    if w < 0.0:
-        return -1
-    drive = p[_KT] * x[0] - p[_T0]
-    if abs(drive) <= p[_TC]:
-        return 0
-    return 1 if drive > 0.0 else -1
-
-
-@njit(cache=True)
-def _substep(x, h, v, p, J, B, new, mid, tmp):
-    """Advance x by h into ``new``, landing exactly on ω = 0 at a reversal."""
-    mode = _mode_of(x, p)
-    _rk4(x, h, v, mode, p, J, B, new, tmp)
-    if mode != 0 and new[1] * mode < 0.0:
-        # ω crossed zero inside the step: locate the crossing (linear guess,
-        # then one secant refinement on the smooth single-mode solution),
-        # stop there, snap ω to 0 and finish the step in the new mode.
-        w0, w1 = x[1], new[1]
-        s = w0 / (w0 - w1)
-        _rk4(x, s * h, v, mode, p, J, B, mid, tmp)
-        wm = mid[1]
-        if wm != 0.0 and w1 != wm:
-            s2 = s - wm * (1.0 - s) / (w1 - wm)
-            if 0.0 < s2 < 1.0:
-                s = s2
-                _rk4(x, s * h, v, mode, p, J, B, mid, tmp)
-        mid[1] = 0.0
-        mode2 = _mode_of(mid, p)
-        _rk4(mid, (1.0 - s) * h, v, mode2, p, J, B, new, tmp)
-        if mode2 != 0 and new[1] * mode2 < 0.0:  # cannot happen for h ≪ J/B
-            new[1] = 0.0
-
-
-@njit(cache=True)
-def _simulate(v, dt, n_sub, k_load, p, x0, states):
-    """Integrate the motor over every ZOH interval; ``states[k]`` is x(t_k).
-
-    ``v[k]`` is held over [t_k, t_{k+1}); the load (J1, B1) acts from sample
-    ``k_load`` on.
-    """
-    n = v.shape[0]
-    x = x0.copy()
-    new = np.empty(4)
-    mid = np.empty(4)
-    tmp = np.empty(4)
-    h = dt / n_sub
-    for k in range(n):
-        for j in range(4):
-            states[k, j] = x[j]
-        if k >= k_load:
-            J, B = p[_J1], p[_B1]
-        else:
-            J, B = p[_J0], p[_B0]
-        for _ in range(n_sub):
-            _substep(x, h, v[k], p, J, B, new, mid, tmp)
-            for j in range(4):
-                x[j] = new[j]
-
-
 def _param_vector(prm):
-    return np.array([prm["R0"], prm["alpha"], prm["T_amb"], prm["L"], prm["Ke"],
-                     prm["Ke"], prm["J0"], prm["J1"], prm["B0"], prm["B1"],
-                     prm["tau_c"], prm["tau_0"], prm["C_th"], prm["R_th"]])
+    """The simulator's parameter vector (order of the kernel's list; K_t = K_e in SI units)."""
+    named = {**prm, "Kt": prm["Ke"]}
+    return np.array([named[k] for k in DC_MOTOR_PARAMETER_ORDER])
 
 
 def _excitation(rng, n, dt, prm):
@@ -279,6 +176,34 @@ def dc_motor(seed=0, *, duration=60.0, dt=1e-3, noise=True):
         import pandas as pd
     except ImportError as err:  # pragma: no cover - exercised without pandas
         raise ImportError("dc_motor needs pandas: pip install 'adaptid[pandas]'") from err
+    seed, duration, dt, n = _check_arguments(seed, duration, dt)
+    noise = bool(noise)
+    prm = MOTOR_PARAMETERS
+    rng = np.random.default_rng(seed)
+    voltage = _excitation(rng, n, dt, prm)
+    k_load = int(round(duration / 2.0 / dt))
+    states = _motor_states(voltage, dt, k_load, prm)
+    # sensors: always draw the random numbers, so that the excitation does
+    # not depend on `noise`
+    angle0 = rng.uniform(0.0, 2.0 * np.pi)
+    e_i = rng.standard_normal(n)
+    if noise:
+        current, speed = _sensors(states, angle0, e_i, dt, prm)
+    else:
+        current, speed = states[:, 0].copy(), states[:, 1].copy()
+
+    time = np.arange(n) * dt
+    attrs = {"load_time": float(k_load * dt), "dt": dt, "seed": seed}
+    data = pd.DataFrame({"time": time, "voltage": voltage, "current": current,
+                         "speed": speed})
+    truth = _truth(time, states[:, 2], k_load, prm)
+    data.attrs.update(attrs)
+    truth.attrs.update(attrs)
+    return data, truth
+
+
+def _check_arguments(seed, duration, dt):
+    """Seed (a non-negative int), duration and dt (positive), and the number of samples."""
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
         raise param_error("seed", "a non-negative integer", seed, exc=TypeError)
     if seed < 0:
@@ -288,49 +213,44 @@ def dc_motor(seed=0, *, duration=60.0, dt=1e-3, noise=True):
     n = int(round(duration / dt))
     if n < 10:
         raise param_error("duration", f"at least 10 samples of dt={dt:g} s", duration)
-    noise = bool(noise)
+    return int(seed), duration, dt, n
 
-    prm = MOTOR_PARAMETERS
-    rng = np.random.default_rng(int(seed))
-    voltage = _excitation(rng, n, dt, prm)
-    load_time = duration / 2.0
-    k_load = int(round(load_time / dt))
+
+def _motor_states(voltage, dt, k_load, prm):
+    """(N, 4) states [i, ω, T, angle] at the sample instants, from rest at ambient temperature.
+
+    RK4 sub-steps of at most 50 µs (compiled kernel of :mod:`adaptid._kernels._simulators`).
+    """
     n_sub = max(1, int(math.ceil(dt / 5e-5 - 1e-9)))
-    p = _param_vector(prm)
     x0 = np.array([0.0, 0.0, prm["T_amb"], 0.0])
-    states = np.empty((n, 4))
-    _simulate(voltage, dt, n_sub, k_load, p, x0, states)
+    states = np.empty((voltage.shape[0], 4))
+    simulate_dc_motor(voltage, dt, n_sub, k_load, _param_vector(prm), x0, states)
+    return states
 
-    time = np.arange(n) * dt
-    current = states[:, 0].copy()
-    speed = states[:, 1].copy()
-    # sensors: always draw the random numbers, so that the excitation does
-    # not depend on `noise`
-    angle0 = rng.uniform(0.0, 2.0 * np.pi)
-    e_i = rng.standard_normal(n)
-    if noise:
-        lsb = 2.0 * prm["i_range"] / 2.0 ** prm["adc_bits"]
-        current = np.clip(np.round((current + prm["i_noise"] * e_i) / lsb) * lsb,
-                          -prm["i_range"], prm["i_range"] - lsb)
-        step = 2.0 * np.pi / prm["encoder_counts"]
-        counts = np.floor((states[:, 3] + angle0) / step)
-        speed = np.empty(n)
-        speed[0] = 0.0
-        speed[1:] = np.diff(counts) * (step / dt)
 
-    temperature = states[:, 2]
+def _sensors(states, angle0, e_i, dt, prm):
+    """Measured current (noisy, 12-bit ADC) and speed (encoder counts differenced over dt)."""
+    lsb = 2.0 * prm["i_range"] / 2.0 ** prm["adc_bits"]
+    current = np.clip(np.round((states[:, 0] + prm["i_noise"] * e_i) / lsb) * lsb,
+                      -prm["i_range"], prm["i_range"] - lsb)
+    step = 2.0 * np.pi / prm["encoder_counts"]
+    counts = np.floor((states[:, 3] + angle0) / step)
+    speed = np.empty(states.shape[0])
+    speed[0] = 0.0
+    speed[1:] = np.diff(counts) * (step / dt)
+    return current, speed
+
+
+def _truth(time, temperature, k_load, prm):
+    """The true parameters at each sample (R follows the winding temperature)."""
+    import pandas as pd
+
+    n = time.shape[0]
     R = prm["R0"] * (1.0 + prm["alpha"] * (temperature - prm["T_amb"]))
     loaded = np.arange(n) >= k_load
     ones = np.ones(n)
-    attrs = {"load_time": float(k_load * dt), "dt": dt,
-             "seed": int(seed)}
-    data = pd.DataFrame({"time": time, "voltage": voltage, "current": current,
-                         "speed": speed})
-    truth = pd.DataFrame({
+    return pd.DataFrame({
         "time": time, "R": R, "L": prm["L"] * ones, "Ke": prm["Ke"] * ones,
         "Kt": prm["Ke"] * ones, "J": np.where(loaded, prm["J1"], prm["J0"]),
         "B": np.where(loaded, prm["B1"], prm["B0"]), "tau_c": prm["tau_c"] * ones,
         "tau_0": prm["tau_0"] * ones})
-    data.attrs.update(attrs)
-    truth.attrs.update(attrs)
-    return data, truth

@@ -109,6 +109,44 @@ def fleet(n_devices=100, n_samples=1000, seed=0, *, fault_fraction=0.1, fault_pa
     """
     import pandas as pd
 
+    G, N, fault_fraction, fault_param, fault_size, spread, noise_std, dt = _check_arguments(
+        n_devices, n_samples, seed, fault_fraction, fault_param, fault_size, spread, noise_std,
+        dt)
+    rng = np.random.default_rng(seed)
+    # the random draws, in this order: parameters, currents, load torques, faults, noise
+    par = {k: v * rng.uniform(1.0 - spread, 1.0 + spread, G) for k, v in _NOMINAL.items()}
+
+    # one float block (columns time, v, i, di_dt, omega, sign_i), filled in place
+    # and handed to pandas without a copy
+    block = np.empty((6, G * N))
+    t_, v, i, di_dt, omega, sign_i = (row.reshape(G, N) for row in block)
+    _currents(rng, dt, i, di_dt, sign_i)
+    _speeds(rng, dt, par["Ke"], i, omega)
+    faulty, k_fault, after = _faults(rng, G, N, fault_fraction, par[fault_param], fault_size)
+    regressor = {"R": i, "L": di_dt, "Ke": omega, "V_b": sign_i}
+    _voltages(rng, noise_std, par, regressor, v, faulty, k_fault, after, fault_param)
+    t_[:] = np.arange(N) * dt
+
+    df = pd.DataFrame(block.T, columns=["time", "v", "i", "di_dt", "omega", "sign_i"],
+                      copy=False)
+    df.insert(0, "device", np.repeat(np.arange(G, dtype=np.int64), N))
+    df.attrs["regression"] = {"y": "v", "phi": list(_PHI)}
+    if not return_truth:
+        return df
+    truth = pd.DataFrame({
+        **par,
+        "fault": faulty,
+        "fault_param": np.where(faulty, fault_param, ""),
+        "fault_sample": k_fault,
+        "fault_time": np.where(faulty, k_fault * dt, np.nan),
+        "value_after": after,
+    }, index=pd.Index(np.arange(G, dtype=np.int64), name="device"))
+    return df, truth
+
+
+def _check_arguments(n_devices, n_samples, seed, fault_fraction, fault_param, fault_size, spread,
+                     noise_std, dt):
+    """The validated arguments of :func:`fleet` (G, N, then the options in order)."""
     G = check_int(n_devices, "n_devices", low=1)
     N = check_int(n_samples, "n_samples", low=10)
     fault_fraction = check_scalar(fault_fraction, "fault_fraction", low=0.0, high=1.0)
@@ -119,17 +157,15 @@ def fleet(n_devices=100, n_samples=1000, seed=0, *, fault_fraction=0.1, fault_pa
     dt = check_scalar(dt, "dt", low=0.0, low_open=True)
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
         raise param_error("seed", "an integer", seed, exc=TypeError)
-    rng = np.random.default_rng(seed)
+    return G, N, fault_fraction, fault_param, fault_size, spread, noise_std, dt
 
-    # parameters per device
-    par = {k: v * rng.uniform(1.0 - spread, 1.0 + spread, G) for k, v in _NOMINAL.items()}
 
-    # one float block (columns time, v, i, di_dt, omega, sign_i), filled in place
-    # and handed to pandas without a copy
-    block = np.empty((6, G * N))
-    t_, v, i, di_dt, omega, sign_i = (row.reshape(G, N) for row in block)
+def _currents(rng, dt, i, di_dt, sign_i):
+    """Fill the (G, N) current, its backward difference and its sign, in place.
 
-    # current: mean + random steps held 20..80 samples + ripple (all > 0)
+    Current: device mean + random steps held 20..80 samples + ripple (all > 0).
+    """
+    G, N = i.shape
     I0 = rng.uniform(1.5, 3.0, G)
     i[:] = _step_signal(rng, G, N, low=-1.0, high=1.0)
     i += I0[:, None]
@@ -138,52 +174,50 @@ def fleet(n_devices=100, n_samples=1000, seed=0, *, fault_fraction=0.1, fault_pa
     np.subtract(i[:, 1:], i[:, :-1], out=di_dt[:, 1:])
     di_dt[:, 1:] /= dt
     np.sign(i, out=sign_i)
-    tau_L = _step_signal(rng, G, N, low=0.0, high=0.05)
 
-    # speed: J dω/dt = Ke i − B ω − τ_L (explicit Euler), from the steady state;
-    # time-major copies so that each step works on contiguous rows
+
+def _speeds(rng, dt, Ke, i, omega):
+    """Fill the (G, N) speed in place: J dω/dt = Ke i − B ω − τ_L (explicit Euler).
+
+    Starts from the steady state; τ_L is a random step signal. Time-major
+    copies, so that each step works on contiguous rows.
+    """
+    G, N = i.shape
+    tau_L = _step_signal(rng, G, N, low=0.0, high=0.05)
     iT = np.ascontiguousarray(i.T)
     tT = np.ascontiguousarray(tau_L.T)
     wT = np.empty((N, G))
-    w = np.maximum((par["Ke"] * iT[0] - tT[0]) / _B, 0.0)
+    w = np.maximum((Ke * iT[0] - tT[0]) / _B, 0.0)
     c = dt / _J
     for k in range(N):
         wT[k] = w
-        w = w + c * (par["Ke"] * iT[k] - _B * w - tT[k])
+        w = w + c * (Ke * iT[k] - _B * w - tT[k])
     omega[:] = wT.T
-    del iT, tT, wT, tau_L
 
-    # faults
+
+def _faults(rng, G, N, fault_fraction, nominal, fault_size):
+    """Which devices are faulty, their first faulty sample (−1 if none), the value after.
+
+    ``nominal`` (G,) is the faulty parameter's value of each device before the fault.
+    """
     n_fault = int(round(fault_fraction * G))
     faulty = np.zeros(G, dtype=bool)
     faulty[rng.choice(G, size=n_fault, replace=False)] = True
     k_fault = np.full(G, -1, dtype=np.int64)
     k_fault[faulty] = rng.integers(int(0.3 * N), int(0.7 * N) + 1, size=n_fault)
-    after = np.where(faulty, par[fault_param] * (1.0 + fault_size), np.nan)
+    after = np.where(faulty, nominal * (1.0 + fault_size), np.nan)
+    return faulty, k_fault, after
 
-    kk = np.arange(N)
+
+def _voltages(rng, noise_std, par, regressor, v, faulty, k_fault, after, fault_param):
+    """Fill the (G, N) voltage in place: noise + θᵀφ, with the changed parameter after a fault."""
+    G, N = v.shape
     v[:] = noise_std * rng.standard_normal((G, N))
-    regressor = {"R": i, "L": di_dt, "Ke": omega, "V_b": sign_i}
     for name, col in regressor.items():
         v += par[name][:, None] * col
     for g in np.flatnonzero(faulty):  # only the faulty devices (a fraction)
         k0 = k_fault[g]
         v[g, k0:] += (after[g] - par[fault_param][g]) * regressor[fault_param][g, k0:]
-    t_[:] = kk * dt
-
-    df = pd.DataFrame(block.T, columns=["time", "v", "i", "di_dt", "omega", "sign_i"],
-                      copy=False)
-    df.insert(0, "device", np.repeat(np.arange(G, dtype=np.int64), N))
-    truth = pd.DataFrame({
-        **par,
-        "fault": faulty,
-        "fault_param": np.where(faulty, fault_param, ""),
-        "fault_sample": k_fault,
-        "fault_time": np.where(faulty, k_fault * dt, np.nan),
-        "value_after": after,
-    }, index=pd.Index(np.arange(G, dtype=np.int64), name="device"))
-    df.attrs["regression"] = {"y": "v", "phi": list(_PHI)}
-    return (df, truth) if return_truth else df
 
 
 def _step_signal(rng, G, N, *, low, high, min_hold=20, max_hold=80):

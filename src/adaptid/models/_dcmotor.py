@@ -260,6 +260,28 @@ def dc_motor_regressors(time, voltage, current, speed, *, cutoff=None, filter_or
     >>> bool(abs(th[2] / truth.Ke[0] - 1) < 1e-2)
     True
     """
+    v, i, w, dt = _check_signals(time, voltage, current, speed)
+    order, cutoff = _check_options(dt, cutoff, filter_order, voltage_hold, speed_kind)
+    cols = _filtered_columns(dt, cutoff, order, voltage_hold, speed_kind, v, i, w)
+    meta = {"dt": dt, "cutoff": cutoff, "filter_order": order,
+            "voltage_hold": voltage_hold, "speed_kind": speed_kind}
+    index = np.arange(v.shape[0])
+    electrical = Regression(
+        Phi=np.ascontiguousarray(np.column_stack([cols["i"], cols["di/dt"], cols["omega"]])),
+        y=cols["v"], names=("i", "di/dt", "omega"), index=index,
+        meta={**meta, "equation": "electrical", "theta": ("R", "L", "Ke")})
+    mechanical = Regression(
+        Phi=np.ascontiguousarray(np.column_stack([cols["domega/dt"], cols["omega"],
+                                                  cols["sign(omega)"], cols["1"]])),
+        y=cols["i"].copy(), names=("domega/dt", "omega", "sign(omega)", "1"),
+        index=index.copy(),
+        meta={**meta, "equation": "mechanical",
+              "theta": ("J/Kt", "B/Kt", "tau_c/Kt", "tau_0/Kt")})
+    return DCMotorRegressors(electrical=electrical, mechanical=mechanical, meta=meta)
+
+
+def _check_signals(time, voltage, current, speed):
+    """Voltage, current and speed as 1-D arrays of the time's length, and the constant step."""
     t = as_float_array(time, "time", ndim=1)
     n = t.shape[0]
     sig = {}
@@ -279,6 +301,11 @@ def dc_motor_regressors(time, voltage, current, speed, *, cutoff=None, filter_or
     if np.max(np.abs(steps - dt)) > 1e-6 * dt:
         raise param_error("time", "uniformly sampled (constant step)",
                           f"<steps from {steps.min():.6g} to {steps.max():.6g} s>")
+    return sig["voltage"], sig["current"], sig["speed"], dt
+
+
+def _check_options(dt, cutoff, filter_order, voltage_hold, speed_kind):
+    """The filter order and cutoff (default fs / 50); the choices of the two signal kinds."""
     fs = 1.0 / dt
     order = check_int(filter_order, "filter_order", low=1)
     if cutoff is None:
@@ -291,10 +318,17 @@ def dc_motor_regressors(time, voltage, current, speed, *, cutoff=None, filter_or
         raise param_error("speed_kind", "one of 'sampled', 'interval_mean'", speed_kind)
     if speed_kind == "interval_mean" and order < 2:
         raise param_error("filter_order", "at least 2 with speed_kind='interval_mean'", order)
+    return order, cutoff
 
+
+def _filtered_columns(dt, cutoff, order, voltage_hold, speed_kind, v, i, w):
+    """Every column and regressand of the two equations through the same filter F.
+
+    Keys ``v, i, di/dt, omega, domega/dt, sign(omega), 1`` (each shape (N,)).
+    """
+    n = v.shape[0]
     # measured signals: samples of continuous signals (first-order hold)
     (b, a), (bd, _) = state_variable_filter(dt, cutoff, order, "foh")
-    v, i, w = sig["voltage"], sig["current"], sig["speed"]
     if speed_kind == "sampled":
         # one pass of F over [i, ω, sign ω, 1]; one pass of sF over [i, ω]
         low = _filter_columns(b, a, np.column_stack([i, w, np.sign(w), np.ones(n)]))
@@ -318,17 +352,5 @@ def dc_motor_regressors(time, voltage, current, speed, *, cutoff=None, filter_or
     else:
         bv, av = b, a
     vf = _filter_columns(bv, av, v[:, None])[:, 0]
-
-    meta = {"dt": dt, "cutoff": cutoff, "filter_order": order,
-            "voltage_hold": voltage_hold, "speed_kind": speed_kind}
-    index = np.arange(n)
-    electrical = Regression(
-        Phi=np.ascontiguousarray(np.column_stack([i_f, dif, wf])), y=vf,
-        names=("i", "di/dt", "omega"), index=index,
-        meta={**meta, "equation": "electrical", "theta": ("R", "L", "Ke")})
-    mechanical = Regression(
-        Phi=np.ascontiguousarray(np.column_stack([dwf, wf, sf, one])), y=i_f.copy(),
-        names=("domega/dt", "omega", "sign(omega)", "1"), index=index.copy(),
-        meta={**meta, "equation": "mechanical",
-              "theta": ("J/Kt", "B/Kt", "tau_c/Kt", "tau_0/Kt")})
-    return DCMotorRegressors(electrical=electrical, mechanical=mechanical, meta=meta)
+    return {"v": vf, "i": i_f, "di/dt": dif, "omega": wf, "domega/dt": dwf,
+            "sign(omega)": sf, "1": one}
