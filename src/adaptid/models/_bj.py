@@ -165,6 +165,13 @@ class BJ(_PseudoLinearModel):
         psi_f = -_lf(D, CF, lagmat(w, self.nf))
         return eps, np.hstack([psi_b, psi_c, psi_d, psi_f])
 
+    def _refine(self, theta, Phi_fix, Y, max_nfev=None):
+        # a trial step may put a root of C or F outside the unit circle: the
+        # filtered errors then overflow, least_squares rejects the step (an
+        # inf cost) and shrinks its trust region; that is not worth a warning
+        with np.errstate(over="ignore", invalid="ignore"):
+            return super()._refine(theta, Phi_fix, Y, max_nfev=max_nfev)
+
     def _stable(self, theta):
         theta = np.array(theta, dtype=np.float64)
         nb, nc, nd = self.nb, self.nc, self.nd
