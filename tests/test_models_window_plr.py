@@ -46,8 +46,10 @@ def _silent_input(N, rng):
     # u is zero on samples 40..69: the window (M = 10) then holds no sample
     # that excites the b directions, and removing the last one that did would
     # leave P⁻¹ with only the 1e-10 prior there: 1 − c φᵀPφ ≈ 1/(1 + 1e10 φᵀφ)
-    # < DOWNDATE_RTOL = 1e-8. The previous kernel refused exactly these
-    # removals (same criterion) and warned "window removal(s) refused".
+    # < DOWNDATE_RTOL = 1e-8. The previous kernel (commit f66d1cc) refused
+    # such a removal on this very record, for both λ below (checked by running
+    # that commit: "1 window removal(s) refused: ..."), and went on with a
+    # window that held older samples too.
     u = rng.standard_normal(N)
     u[40:70] = 0.0
     return u
