@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from .._validation import as_float_array, check_int, param_error
+from .._validation import as_float_array, check_int
+from ._builders import _per_input
 from ._pem import _PseudoLinearModel, lagmat, stabilize
-from ._polymodel import _poly_sub
+from ._polymodel import _poly_sub, check_orders
 
 __all__ = ["BJ"]
 
@@ -54,19 +55,25 @@ class BJ(_PseudoLinearModel):
       efficient) where ARX, and ARMAX with its shared denominator, are biased.
 
     Roots of C, D and F outside the unit circle are reflected inside. The
-    rows are the samples k = s … N-1, :math:`s = n_k + n_b - 1`, with the
+    rows are the samples k = s … N-1, :math:`s = \max_i(n_{k,i} + n_{b,i}) - 1`, with the
     signals zero before the first row; ``cov`` is the asymptotic
     prediction-error covariance :math:`\hat\sigma^2(\Psi^T\Psi)^{-1}`
-    (Ljung 1999, eq. 9.17). One input.
+    (Ljung 1999, eq. 9.17).
+
+    Several inputs (as :class:`OE`): :math:`y = \sum_i B_i/F_i\,u^{(i)} + C/D\,e`,
+    θ = [b⁽¹⁾ … b⁽ᵐ⁾, c, d, f⁽¹⁾ … f⁽ᵐ⁾], one simulated output
+    :math:`w^{(i)}` per input in the regressor, w their sum.
 
     Parameters
     ----------
-    nb : int
-        Number of B coefficients, ``>= 1``.
-    nc, nd, nf : int
-        Orders of C, D, F, ``>= 0``.
-    nk : int
-        Input delay, ``>= 0`` (default 1).
+    nb : int or sequence of int
+        Number of B coefficients (per input), ``>= 1``.
+    nc, nd : int
+        Orders of C and D, ``>= 0``.
+    nf : int or sequence of int
+        Order of F (per input), ``>= 0``.
+    nk : int or sequence of int
+        Input delay (per input), ``>= 0`` (default 1).
     dt : float
         Sample time (default 1.0).
 
@@ -97,32 +104,48 @@ class BJ(_PseudoLinearModel):
     _order_names = ("nb", "nc", "nd", "nf", "nk")
 
     def __init__(self, nb, nc, nd, nf, nk=1, *, dt=1.0):
-        nb = check_int(nb, "nb", low=1)
-        self._init_orders(0, nb, nc, nf, nk, dt)
+        check_orders(nb, "nb", low=1)
+        check_orders(nf, "nf", low=0)
+        self._init_orders(0, nb, nc, 0, nk, dt)
         self.nd = check_int(nd, "nd", low=0)
-        self.nb, self.nk = nb, check_int(nk, "nk", low=0)
-        self._nd = self.nc + self.nd + self.nf
+        self.nf = nf
+        self._nf_spec = nf
 
-    def _check_inputs(self, U):
-        if U.shape[1] != 1:
-            raise param_error("u", "one input signal (shape (N,) or (N, 1)) for BJ",
-                              f"<{U.shape[1]} columns>")
+    def _set_inputs(self, m, single):
+        super()._set_inputs(m, single)
+        self._nf = _per_input(self._nf_spec, "nf", m, low=0)
+        self._nd = self.nc + self.nd + sum(self._nf)
 
     # ------------------------------------------------------------ layout
     def _parts(self, theta):
-        nb, nc, nd = self.nb, self.nc, self.nd
-        return (theta[:nb], theta[nb: nb + nc], theta[nb + nc: nb + nc + nd],
-                theta[nb + nc + nd:])
+        """θ → ([b_i], c, d, [f_i]) (MATLAB's order: all B, C, D, all F)."""
+        bs, o = [], 0
+        for nb in self._nb:
+            bs.append(theta[o: o + nb])
+            o += nb
+        c = theta[o: o + self.nc]
+        o += self.nc
+        d = theta[o: o + self.nd]
+        o += self.nd
+        fs = []
+        for nf in self._nf:
+            fs.append(theta[o: o + nf])
+            o += nf
+        return bs, c, d, fs
 
     def _split(self, theta):
-        b, c, _, f = self._parts(theta)
-        return np.zeros(0), [b], c, [f]
+        bs, c, _, fs = self._parts(theta)
+        return np.zeros(0), bs, c, fs
 
     def _names(self):
-        return tuple([f"b{j}" for j in range(self.nb)] +
-                     [f"c{j}" for j in range(1, self.nc + 1)] +
-                     [f"d{j}" for j in range(1, self.nd + 1)] +
-                     [f"f{j}" for j in range(1, self.nf + 1)])
+        names = []
+        for i, nb in enumerate(self._nb):
+            names += [f"b{j}" if self._single else f"b{i}_{j}" for j in range(nb)]
+        names += [f"c{j}" for j in range(1, self.nc + 1)]
+        names += [f"d{j}" for j in range(1, self.nd + 1)]
+        for i, nf in enumerate(self._nf):
+            names += [f"f{j}" if self._single else f"f{i}_{j}" for j in range(1, nf + 1)]
+        return tuple(names)
 
     @property
     def D(self):
@@ -131,39 +154,50 @@ class BJ(_PseudoLinearModel):
         return np.concatenate([[1.0], self._parts(self.theta)[2]])
 
     def _signal_spec(self, nfix):
-        # signals: 0 = w (simulated output), 1 = v = y - w, 2 = ε (residual)
-        nb, nc, nd, nf = self.nb, self.nc, self.nd, self.nf
-        n = nb + nc + nd + nf
-        plant = np.zeros(n, dtype=bool)
-        plant[:nb] = True
-        plant[nb + nc + nd:] = True
-        mix = np.zeros((3, n))
-        mix[0, plant] = 1.0
-        mix[1, plant] = -1.0
-        mix[2, :] = -1.0
-        alpha = np.array([0.0, 1.0, 1.0])
-        dyn_group = np.r_[np.full(nc, 2), np.full(nd, 1), np.full(nf, 0)].astype(np.int64)
+        # signals: g < m: w_g (input g's simulated output), m: v = y − Σ w, m+1: ε
+        m, nc, nd = self._m, self.nc, self.nd
+        nbs, nfs = sum(self._nb), sum(self._nf)
+        n = nbs + nc + nd + nfs
+        owner = np.r_[np.concatenate([np.full(b, i) for i, b in enumerate(self._nb)]),
+                      np.full(nc + nd, -1),
+                      np.concatenate([np.full(f, i) for i, f in enumerate(self._nf)]
+                                     + [np.zeros(0)])].astype(np.int64)
+        mix = np.zeros((m + 2, n))
+        for i in range(m):
+            mix[i, owner == i] = 1.0
+        mix[m, owner >= 0] = -1.0
+        mix[m + 1, :] = -1.0
+        alpha = np.r_[np.zeros(m), 1.0, 1.0]
+        dyn_group = np.r_[np.full(nc, m + 1), np.full(nd, m),
+                          np.concatenate([np.full(f, i) for i, f in enumerate(self._nf)]
+                                         + [np.zeros(0)])].astype(np.int64)
         dyn_lag = np.r_[np.arange(1, nc + 1), np.arange(1, nd + 1),
-                        np.arange(1, nf + 1)].astype(np.int64)
-        dyn_sgn = np.r_[np.ones(nc), -np.ones(nd), -np.ones(nf)]
+                        np.concatenate([np.arange(1, f + 1) for f in self._nf]
+                                       + [np.zeros(0)])].astype(np.int64)
+        dyn_sgn = np.r_[np.ones(nc), -np.ones(nd + nfs)]
         return alpha, mix, dyn_group, dyn_lag, dyn_sgn
 
     # ------------------------------------------------- prediction errors
     def _errors(self, theta, Phi_fix, Y):
-        r"""ε = D/C (y − B/F u) and ψ = −∂ε/∂θ (Ljung 1999, eq. 10.54)."""
-        b, c, d, f = self._parts(np.asarray(theta, dtype=np.float64))
+        r"""ε = D/C (y − Σ B_i/F_i u_i) and ψ = −∂ε/∂θ (Ljung 1999, eq. 10.54)."""
+        bs, c, d, fs = self._parts(np.asarray(theta, dtype=np.float64))
         C = np.concatenate([[1.0], c])
         D = np.concatenate([[1.0], d])
-        F = np.concatenate([[1.0], f])
-        w = self._filt(F, Phi_fix @ b)
-        v = Y - w
+        ws, psi_b, psi_f, o = [], [], [], 0
+        for b, f in zip(bs, fs):
+            F = np.concatenate([[1.0], f])
+            cols = Phi_fix[:, o: o + b.size]
+            o += b.size
+            w = self._filt(F, cols @ b)
+            ws.append(w)
+            CF = np.convolve(C, F)
+            psi_b.append(_lf(D, CF, cols))
+            psi_f.append(-_lf(D, CF, lagmat(w, f.size)))
+        v = Y - np.sum(ws, axis=0)
         eps = signal.lfilter(D, C, v)
-        CF = np.convolve(C, F)
-        psi_b = _lf(D, CF, Phi_fix)
         psi_c = _lf([1.0], C, lagmat(eps, self.nc))
         psi_d = -_lf([1.0], C, lagmat(v, self.nd))
-        psi_f = -_lf(D, CF, lagmat(w, self.nf))
-        return eps, np.hstack([psi_b, psi_c, psi_d, psi_f])
+        return eps, np.hstack(psi_b + [psi_c, psi_d] + psi_f)
 
     def _refine(self, theta, Phi_fix, Y, max_nfev=None):
         # a trial step may put a root of C or F outside the unit circle: the
@@ -174,9 +208,10 @@ class BJ(_PseudoLinearModel):
 
     def _stable(self, theta):
         theta = np.array(theta, dtype=np.float64)
-        nb, nc, nd = self.nb, self.nc, self.nd
-        for lo, hi in ((nb, nb + nc), (nb + nc, nb + nc + nd), (nb + nc + nd, theta.size)):
-            theta[lo:hi] = stabilize(np.concatenate([[1.0], theta[lo:hi]]))[1:]
+        o = sum(self._nb)
+        for k in [self.nc, self.nd] + list(self._nf):
+            theta[o: o + k] = stabilize(np.concatenate([[1.0], theta[o: o + k]]))[1:]
+            o += k
         return theta
 
     # ------------------------------------------------------------- fit
@@ -201,7 +236,7 @@ class BJ(_PseudoLinearModel):
         Parameters
         ----------
         y : array_like, shape (N,)
-        u : array_like, shape (N,) or (N, 1)
+        u : array_like, shape (N,) or (N, m)
         refine : bool
             Run step 3 (default True); False keeps the start estimate.
         n_iter : int
@@ -218,21 +253,22 @@ class BJ(_PseudoLinearModel):
         from ._ar import ARMA
         from ._oe import OE
 
-        reg, Phi_fix = self._prepare(y, u)
-        y = as_float_array(y, "y", ndim=1)
-        U = np.asarray(u, dtype=np.float64).reshape(y.shape[0], -1)
-        oe = OE(self.nb, self.nf, self.nk).fit(y, U[:, 0], n_iter=n_iter, refine=True)
-        bf = oe.theta
+        y, U = self._data(y, u, fitting=True)
+        reg, Phi_fix = self._fixed_regression(y, U, self._single)
+        with np.errstate(over="ignore", invalid="ignore"):  # rejected trial steps, see _refine
+            oe = OE(self._nb_spec, self._nf_spec, self._nk_spec).fit(
+                y, U[:, 0] if self._single else U, n_iter=n_iter, refine=True)
+        nbs = sum(self._nb)
         c, d = np.zeros(self.nc), np.zeros(self.nd)
         if self.nc + self.nd:
-            vhat = y - oe.simulate(U[:, 0])
+            vhat = y - oe.simulate(U)
             if self.nd:
                 arma = ARMA(self.nd, self.nc).fit(vhat, refine=False, arx_order=arx_order)
                 d, c = arma.theta[: self.nd], arma.theta[self.nd:]
             else:  # MA noise: Hannan-Rissanen of an ARMA(1, nc), keeping its C
                 arma = ARMA(1, self.nc).fit(vhat, refine=False, arx_order=arx_order)
                 c = arma.theta[1:]
-        theta = self._stable(np.r_[bf[: self.nb], c, d, bf[self.nb:]])
+        theta = self._stable(np.r_[oe.theta[:nbs], c, d, oe.theta[nbs:]])
         if refine:
             theta = self._refine(theta, Phi_fix, reg.y, max_nfev=max_nfev)
         self._finish(theta, Phi_fix, reg.y, reg)
@@ -252,7 +288,7 @@ class BJ(_PseudoLinearModel):
         Parameters
         ----------
         y : array_like, shape (N,)
-        u : array_like, shape (N,) or (N, 1)
+        u : array_like, shape (N,) or (N, m)
         k : int
             Horizon, ``>= 1`` (default 1).
 
@@ -264,17 +300,18 @@ class BJ(_PseudoLinearModel):
         k = check_int(k, "k", low=1)
         _, Bs, C, Fs = self._polys()
         D = self.D
-        Hk = self._hbar(k, D, C)
-        HD = np.convolve(Hk, D)
+        HD = np.convolve(self._hbar(k, D, C), D)
         out = signal.lfilter(_poly_sub(C, HD), C, y)
-        return out + signal.lfilter(np.convolve(HD, Bs[0]), np.convolve(C, Fs[0]), U[:, 0])
+        for i in range(self._m):
+            out = out + signal.lfilter(np.convolve(HD, Bs[i]), np.convolve(C, Fs[i]), U[:, i])
+        return out
 
     def simulate(self, u, *, noise=None):
         r"""Simulated output :math:`B/F\,u` (plus :math:`C/D\,e` when ``noise`` = e is given).
 
         Parameters
         ----------
-        u : array_like, shape (N,) or (N, 1)
+        u : array_like, shape (N,) or (N, m)
         noise : array_like, shape (N,), optional
 
         Returns
@@ -283,7 +320,9 @@ class BJ(_PseudoLinearModel):
         """
         U = self._inputs(u)
         _, Bs, C, Fs = self._polys()
-        out = signal.lfilter(Bs[0], Fs[0], U[:, 0])
+        out = np.zeros(U.shape[0])
+        for i in range(self._m):
+            out += signal.lfilter(Bs[i], Fs[i], U[:, i])
         if noise is not None:
             e = as_float_array(noise, "noise", shape=(U.shape[0],))
             out = out + signal.lfilter(C, self.D, e)
