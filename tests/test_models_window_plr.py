@@ -17,7 +17,7 @@ import pytest
 from scipy.signal import lfilter
 
 import adaptid
-from adaptid.models import ARMAX, OE, arx_regressors
+from adaptid.models import ARMAX, BJ, OE, arx_regressors
 
 
 def _window_oracle(rows, Y, M, lam, P0, k):
@@ -113,3 +113,29 @@ def test_window_without_rebuild_is_unchanged_and_silent(rng):
     for k in (M - 1, 150, N - 3):
         np.testing.assert_allclose(traj.theta[k], _window_oracle(rows, reg.y, M, 1.0, 1e4, k),
                                    rtol=1e-8, atol=1e-10)
+
+
+def test_bj_window_resolve_matches_frozen_regressors(rng):
+    N, M, P0 = 160, 15, 1e10
+    u = _silent_input(N, rng)
+    e = 0.1 * rng.standard_normal(N)
+    y = lfilter([0, 1.0, 0.5], [1, -0.6], u) + lfilter([1, 0.4], [1, -0.8], e)
+    with pytest.warns(adaptid.DefinitenessLossWarning, match="re-solved"):
+        traj = BJ(2, 1, 1, 1).fit_recursive(y, u, adaptid.SlidingWindowRLS(5, M, P0=P0))
+    assert traj.n_rebuilds >= 1
+    reg = arx_regressors(y, u, 0, 2, 1)
+    # BJ(2,1,1,1): φ_k = [u_{k-1}, u_{k-2}, ε_{k-1}, −v_{k-1}, −w_{k-1}], with the
+    # a-posteriori w_k = [u lags, −w_{k-1}]·[b, f]_k, v_k = y_k − w_k, ε_k = y_k − φ_kᵀθ_k
+    Nr = reg.y.size
+    rows = np.zeros((Nr, 5))
+    w, v, eps = np.zeros(Nr), np.zeros(Nr), np.zeros(Nr)
+    for k in range(Nr):
+        p = (lambda x: x[k - 1] if k else 0.0)
+        rows[k] = np.r_[reg.Phi[k], p(eps), -p(v), -p(w)]
+        th = traj.theta[k]
+        w[k] = rows[k, [0, 1, 4]] @ th[[0, 1, 4]]
+        v[k] = reg.y[k] - w[k]
+        eps[k] = reg.y[k] - rows[k] @ th
+    for k in range(Nr):
+        ref = _window_oracle(rows, reg.y, M, 1.0, P0, k)
+        assert np.max(np.abs(traj.theta[k] - ref)) <= 1e-6 * max(1.0, np.max(np.abs(ref))), k
