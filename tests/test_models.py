@@ -391,7 +391,8 @@ def test_public_index():
 
     expected = {"Regression", "arx_regressors", "fir_regressors", "trend_regressors",
                 "exponential_regressors", "table_regressors", "dc_motor_regressors",
-                "DCMotorRegressors", "ARX", "ARMAX", "OE", "NotFittedError"}
+                "DCMotorRegressors", "ARX", "ARMAX", "OE", "AR", "ARMA", "BJ",
+                "NotFittedError"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

@@ -19,13 +19,18 @@ aic / fpe / cov / to_control):
 * :class:`ARX` — least squares;
 * :class:`ARMAX` — extended least squares (recursive: RELS), optional
   prediction-error refinement;
-* :class:`OE` — pseudo-linear regression (recursive: RPLR), Steiglitz–McBride.
+* :class:`OE` — pseudo-linear regression (recursive: RPLR), Steiglitz–McBride;
+* :class:`BJ` — Box–Jenkins: prediction errors from a Steiglitz–McBride /
+  Hannan–Rissanen start (recursive: pseudo-linear regression);
+* :class:`AR`, :class:`ARMA` — time series (least squares; Hannan–Rissanen
+  and prediction errors; recursive: RLS / RELS).
 """
 
 from __future__ import annotations
 
 import importlib
 
+from ._ar import AR, ARMA
 from ._armax import ARMAX
 from ._arx import ARX
 from ._builders import (
@@ -34,6 +39,7 @@ from ._builders import (
     fir_regressors,
     trend_regressors,
 )
+from ._bj import BJ
 from ._oe import OE
 from ._polymodel import NotFittedError
 from ._regression import Regression
@@ -57,6 +63,9 @@ __all__ = [
     "ARX",
     "ARMAX",
     "OE",
+    "AR",
+    "ARMA",
+    "BJ",
     "NotFittedError",
 ]
 

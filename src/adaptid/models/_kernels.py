@@ -1,10 +1,11 @@
-r"""Compiled recursive pseudo-linear regression (RELS for ARMAX, PLR for OE).
+r"""Compiled recursive pseudo-linear regression (RELS for ARMAX, PLR for OE and BJ).
 
 The regressor of sample k holds fixed columns (lagged measured signals,
-precomputed) followed by ``nd`` lags of a signal v that the recursion itself
+precomputed) followed by ``nd`` lags of signals that the recursion itself
 produces from the estimates (ARMAX: the a-posteriori residuals; OE: the
-a-posteriori simulated output), so the loop cannot be split into "build Φ"
-then "run an estimator": it is one compiled pass. No validation here.
+a-posteriori simulated output; BJ: both and the noise v = y − w), so the
+loop cannot be split into "build Φ" then "run an estimator": it is one
+compiled pass. No validation here.
 """
 
 from __future__ import annotations
@@ -19,17 +20,51 @@ __all__ = ["pseudolinear_run"]
 
 
 @njit(**NJIT)
-def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn, theta,
+def _window_resolve(theta, U, D, theta_s, U_s, D_s, L, Bphi, By, k, M, lam, f, v, b, n):
+    """Re-solve the window of samples k−M+1 … k exactly from the buffer.
+
+    The prior is the starting state, decayed as in the recursion
+    (P_s / λ^(k+1), floored at exp(−600) of its weight as the core
+    estimator does); sample j enters with weight λ^(k−j)."""
+    scale = np.exp(min(-L, 600.0))
+    for i in range(n):
+        theta[i] = theta_s[i]
+        D[i] = D_s[i] * scale
+        for j in range(n):
+            U[i, j] = U_s[i, j]
+    for t in range(M):
+        j = k - M + 1 + t
+        if j < 0:
+            continue
+        s = j % M
+        c = lam ** (k - j)
+        e = By[s]
+        for i in range(n):
+            e -= Bphi[s, i] * theta[i]
+        _bierman_prep(U, D, Bphi[s], f, v, n)
+        a = _bierman_apply(U, D, 1.0 / c, f, v, b, n)
+        g = e / a
+        for i in range(n):
+            theta[i] += b[i] * g
+
+
+@njit(**NJIT)
+def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
                      U, D, lam, Q, kalman, r2, M, rtol, mode, fp, pmax, Th, E, V, Lk):
     r"""Recursive pseudo-linear regression on the U-D factors of P.
 
     The regressor of sample k is the fixed columns ``Phi_fix[k]`` followed
-    by ``nd`` dynamic ones: column j is ``sgn * v_g[k - l]`` with
+    by ``nd`` dynamic ones: column j is ``dyn_sgn[j] * v_g[k - l]`` with
     ``g = dyn_group[j]``, ``l = dyn_lag[j]``, where the G signals
-    :math:`v_{g,k} = \alpha y_k + \beta\sum_{i:\,\text{col\_group}[i]=g}
-    \varphi_{k,i}\theta_i` are formed after the update of sample k (ARMAX:
-    one group of all columns, the a-posteriori residual; OE: one group per
-    input, that input's simulated output). Per sample:
+
+    .. math::
+
+        v_{g,k} = \alpha_g y_k + \sum_i \text{mix}_{g,i}\,\varphi_{k,i}\theta_i
+
+    are formed after the update of sample k (ARMAX: one signal, α = 1,
+    mix = −1, the a-posteriori residual; OE: one signal per input, α = 0,
+    mix = 1 on that input's columns, its simulated output; BJ: the
+    simulated output w, the noise v = y − w and the residual ε). Per sample:
 
     .. math::
 
@@ -41,20 +76,22 @@ def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn
     done as the core estimators do it (:mod:`adaptid._kernels._ud`):
     ``D ← D/λ``, a Bierman update with weight r₂, and for the Kalman
     recursion (``kalman``) the time update ``P + Q`` re-factorised. With a
-    window M > 0 the sample k − M is then removed with weight
-    :math:`c = \lambda^M` (Bierman with weight −1/c), unless
-    :math:`1 - c\,\varphi^T P\varphi <` ``rtol`` (the removal would make P
-    indefinite or nearly so): then it is refused and counted. With
-    ``mode >= 0`` the measurement update is instead the step of an
-    :mod:`adaptid.forgetting` strategy (or of ``P_max``), exactly as in
-    :class:`adaptid.RLS` (``_strategy_step``), and ``Lk[k]`` receives the λₖ
-    it applied. Finally
+    window M > 0 the regressor actually used is stored in a buffer and the
+    sample k − M is then removed with weight :math:`c = \lambda^M` (Bierman
+    with weight −1/c), unless :math:`1 - c\,\varphi^T P\varphi <` ``rtol``
+    (the removal would make P indefinite or nearly so): then, as in
+    :class:`adaptid.SlidingWindowRLS`, the window is re-solved exactly from
+    the buffer (samples k − M + 1 … k with weights λ^(k−j)) and the starting
+    θ, P taken as the prior, decayed by λ^(k+1). With ``mode >= 0`` the
+    measurement update is instead the step of an :mod:`adaptid.forgetting`
+    strategy (or of ``P_max``), exactly as in :class:`adaptid.RLS`
+    (``_strategy_step``), and ``Lk[k]`` receives the λₖ it applied. Finally
     the signals :math:`v_{g,k}` are formed. ``theta``, ``U`` (unit upper
     triangular) and ``D`` are updated in place; ``Th[k]``, ``E[k]``,
     ``V[k, g]`` receive θ after sample k, ε_k and :math:`v_{g,k}`.
 
-    Returns the number of window removals refused, or −1 if the time update
-    lost positive definiteness.
+    Returns the number of window re-solves, or −1 if the time update lost
+    positive definiteness.
     """
     N, nfix = Phi_fix.shape
     nd = dyn_group.shape[0]
@@ -73,18 +110,21 @@ def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn
     ek = np.empty(1)
     yk = np.empty(1)
     vh = np.zeros((G, L))  # vh[g, l - 1] = v_g[k - l]
-    vg = np.empty(G)
     Mb = max(M, 1)
     Bphi = np.zeros((Mb, n))
     By = np.zeros(Mb)
+    theta_s = theta.copy()
+    U_s = U.copy()
+    D_s = D.copy()
     cM = lam ** M
     il = 1.0 / lam
-    refused = 0
+    logl = np.log(lam)
+    rebuilds = 0
     for k in range(N):
         for j in range(nfix):
             phi[j] = Phi_fix[k, j]
         for j in range(nd):
-            phi[nfix + j] = sgn * vh[dyn_group[j], dyn_lag[j] - 1]
+            phi[nfix + j] = dyn_sgn[j] * vh[dyn_group[j], dyn_lag[j] - 1]
         e = Y[k]
         for j in range(n):
             e -= phi[j] * theta[j]
@@ -108,10 +148,11 @@ def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn
             return -1
         if M > 0:
             slot = k % M
+            resolve = False
             if k >= M:
                 q = _bierman_prep(U, D, Bphi[slot], f, v, n)
                 if 1.0 - cM * q < rtol:
-                    refused += 1
+                    resolve = True
                 else:
                     eo = By[slot]
                     for i in range(n):
@@ -123,15 +164,18 @@ def pseudolinear_run(Phi_fix, Y, col_group, dyn_group, dyn_lag, alpha, beta, sgn
             for j in range(n):
                 Bphi[slot, j] = phi[j]
             By[slot] = Y[k]
-        for g in range(G):
-            vg[g] = 0.0
+            if resolve:
+                rebuilds += 1
+                _window_resolve(theta, U, D, theta_s, U_s, D_s, (k + 1) * logl, Bphi, By,
+                                k, M, lam, f, v, b, n)
         for j in range(n):
-            vg[col_group[j]] += phi[j] * theta[j]
             Th[k, j] = theta[j]
         for g in range(G):
-            vk = alpha * Y[k] + beta * vg[g]
+            vk = alpha[g] * Y[k]
+            for j in range(n):
+                vk += mix[g, j] * phi[j] * theta[j]
             V[k, g] = vk
             for lag in range(L - 1, 0, -1):
                 vh[g, lag] = vh[g, lag - 1]
             vh[g, 0] = vk
-    return refused
+    return rebuilds

@@ -7,7 +7,7 @@ import numpy as np
 from scipy import optimize, signal
 
 from ._polymodel import _PolyModel
-from ._recursive import run_pseudolinear
+from ._recursive import run_signals, signal_spec
 
 __all__ = ["_PseudoLinearModel", "lagmat", "stabilize"]
 
@@ -55,6 +55,12 @@ class _PseudoLinearModel(_PolyModel):
         return (np.zeros(nfix + nd, dtype=np.int64), np.zeros(nd, dtype=np.int64),
                 np.arange(1, nd + 1, dtype=np.int64), 1)
 
+    def _signal_spec(self, nfix):
+        """The recursion's signals and dynamic columns (see ``run_signals``)."""
+        groups = self._groups(nfix)
+        return signal_spec(groups, self._alpha, self._beta, self._sgn,
+                           nfix + np.asarray(groups[1]).shape[0])
+
     def _finish(self, theta, Phi_fix, Y, reg):
         self.theta = np.asarray(theta, dtype=np.float64)
         eps, Psi = self._errors(self.theta, Phi_fix, Y)
@@ -100,7 +106,12 @@ class _PseudoLinearModel(_PolyModel):
         sample k - M with weight :math:`\lambda^M`), or
         :math:`\lambda = 1`, :math:`r_2 = R_2`, :math:`R_1` of a
         :class:`~adaptid.KalmanRLS` (:math:`r_2 = 1`, :math:`R_1 = 0`
-        otherwise). Söderström & Stoica (1989), sec. 9.4 (RPLR).
+        otherwise). Söderström & Stoica (1989), sec. 9.4 (RPLR). A window
+        removal that would lose definiteness is replaced, as in
+        :class:`~adaptid.SlidingWindowRLS`, by an exact re-solve of the window
+        from a buffer of the regressors used (the estimator's starting θ, P
+        as the prior), with a :class:`~adaptid.DefinitenessLossWarning`;
+        ``Trajectory.n_rebuilds`` counts them.
 
         Parameters
         ----------
@@ -124,15 +135,17 @@ class _PseudoLinearModel(_PolyModel):
             covariance at it.
         """
         reg, Phi_fix = self._prepare(y, u)
-        Th, E, V, theta, P, Lk = run_pseudolinear(Phi_fix, reg.y, self._groups(Phi_fix.shape[1]),
-                                              self._alpha,
-                                              self._beta, self._sgn, estimator)
+        Th, E, V, theta, P, Lk, n_rebuilds = run_signals(
+            Phi_fix, reg.y, self._signal_spec(Phi_fix.shape[1]), estimator)
         theta = self._stable(theta)
         if refine:
             theta = self._refine(theta, Phi_fix, reg.y)
         self._finish(theta, Phi_fix, reg.y, reg)
         self.P = P
-        return self._trajectory(Th, E, reg.index, self.names, Lk)
+        import dataclasses
+
+        return dataclasses.replace(self._trajectory(Th, E, reg.index, self.names, Lk),
+                                   n_rebuilds=n_rebuilds)
 
     @staticmethod
     def _filt(den, X):

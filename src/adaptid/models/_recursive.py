@@ -10,7 +10,7 @@ from .._exceptions import DefinitenessLossWarning
 from .._validation import param_error
 from ._kernels import pseudolinear_run
 
-__all__ = ["estimator_settings", "run_pseudolinear"]
+__all__ = ["estimator_settings", "run_pseudolinear", "run_signals", "signal_spec"]
 
 
 def estimator_settings(estimator, n):
@@ -44,39 +44,65 @@ def estimator_settings(estimator, n):
             ks.window, theta, U, D, strategy)
 
 
+def signal_spec(groups, alpha, beta, sgn, n):
+    """The general signal description (α (G,), mix (G, n), dyn_group, dyn_lag,
+    dyn_sgn) of ARMAX / OE's (col_group, dyn_group, dyn_lag, G), α, β, sgn:
+    signal g is α y + β Σ_{col_group[i] = g} φᵢθᵢ, every dynamic column
+    enters with the sign ``sgn``."""
+    col_group, dyn_group, dyn_lag, G = groups
+    col_group = np.asarray(col_group, dtype=np.int64)
+    mix = np.zeros((G, n))
+    mix[col_group, np.arange(n)] = beta
+    nd = np.asarray(dyn_group).shape[0]
+    return (np.full(G, float(alpha)), mix, dyn_group, dyn_lag, np.full(nd, float(sgn)))
+
+
 def run_pseudolinear(Phi_fix, Y, groups, alpha, beta, sgn, estimator):
-    """One compiled RELS / PLR pass; returns (Th, E, V, theta, P, Lk).
+    """ARMAX / OE's recursion; see :func:`run_signals` (this converts with
+    :func:`signal_spec`). Returns (Th, E, V, theta, P, Lk)."""
+    n = Phi_fix.shape[1] + np.asarray(groups[1]).shape[0]
+    return run_signals(Phi_fix, Y, signal_spec(groups, alpha, beta, sgn, n), estimator)[:6]
+
+
+def run_signals(Phi_fix, Y, spec, estimator):
+    """One compiled RELS / PLR pass; returns (Th, E, V, theta, P, Lk, n_rebuilds).
 
     Lk holds the λₖ a forgetting strategy applied (None without one).
-
-    ``groups = (col_group, dyn_group, dyn_lag, G)`` describes the dynamic
-    columns and the signals they lag (see :func:`pseudolinear_run`).
+    ``spec = (alpha, mix, dyn_group, dyn_lag, dyn_sgn)`` describes the
+    signals the recursion forms and the dynamic columns that lag them (see
+    :func:`pseudolinear_run`). A sliding window whose removal would lose
+    definiteness is re-solved from its buffer (``n_rebuilds`` counts them,
+    with one :class:`DefinitenessLossWarning`), as
+    :class:`~adaptid.SlidingWindowRLS` does.
     """
     from .._config import DOWNDATE_RTOL
 
-    col_group, dyn_group, dyn_lag, G = groups
-    nd = dyn_group.shape[0]
+    alpha, mix, dyn_group, dyn_lag, dyn_sgn = spec
+    nd = np.asarray(dyn_group).shape[0]
     n = Phi_fix.shape[1] + nd
     lam, Q, kalman, r2, M, theta, U, D, (mode, fp, pmax) = estimator_settings(estimator, n)
     N = Y.shape[0]
+    G = np.asarray(alpha).shape[0]
     Th = np.empty((N, n))
     E = np.empty(N)
     V = np.empty((N, G))
     Lk = np.empty(N)
-    refused = pseudolinear_run(np.ascontiguousarray(Phi_fix, dtype=np.float64),
-                               np.ascontiguousarray(Y, dtype=np.float64),
-                               np.ascontiguousarray(col_group, dtype=np.int64),
-                               np.ascontiguousarray(dyn_group, dtype=np.int64),
-                               np.ascontiguousarray(dyn_lag, dtype=np.int64),
-                               float(alpha), float(beta), float(sgn), theta, U, D,
-                               lam, Q, kalman, r2, M, DOWNDATE_RTOL, mode, fp, pmax,
-                               Th, E, V, Lk)
-    if refused < 0:
+    status = pseudolinear_run(np.ascontiguousarray(Phi_fix, dtype=np.float64),
+                              np.ascontiguousarray(Y, dtype=np.float64),
+                              np.ascontiguousarray(alpha, dtype=np.float64),
+                              np.ascontiguousarray(mix, dtype=np.float64),
+                              np.ascontiguousarray(dyn_group, dtype=np.int64),
+                              np.ascontiguousarray(dyn_lag, dtype=np.int64),
+                              np.ascontiguousarray(dyn_sgn, dtype=np.float64),
+                              theta, U, D, lam, Q, kalman, r2, M, DOWNDATE_RTOL, mode, fp, pmax,
+                              Th, E, V, Lk)
+    if status < 0:
         raise FloatingPointError("the Kalman time update P + Q lost positive definiteness "
                                  "(P overflowed?)")
-    if refused:
-        warnings.warn(f"{refused} window removal(s) refused: they would have made P indefinite "
-                      "or nearly so (the window then holds older samples too)",
+    if status:
+        warnings.warn(f"pseudo-linear recursion: {status} removal(s) from the window would have "
+                      "lost positive definiteness; the window was re-solved exactly from its "
+                      "buffer of the regressors used (poorly excited window?)",
                       DefinitenessLossWarning, stacklevel=3)
     P = (U * D) @ U.T
-    return Th, E, V, theta, 0.5 * (P + P.T), (Lk if mode >= 0 else None)
+    return (Th, E, V, theta, 0.5 * (P + P.T), (Lk if mode >= 0 else None), int(status))

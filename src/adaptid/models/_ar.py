@@ -1,0 +1,287 @@
+r"""Time-series models: AR :math:`A(q)y_k = e_k` and ARMA :math:`A(q)y_k = C(q)e_k`.
+
+They are the ARX and ARMAX structures without an input (``nb = 0``), fitted
+by the same code: internally the input is an all-zero column that no
+regressor uses.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from .._validation import as_float_array, check_choice, check_int
+from ._armax import ARMAX
+from ._arx import ARX
+
+__all__ = ["AR", "ARMA"]
+
+
+class _TimeSeries:
+    """The input-free face of ARX / ARMAX (mixed in before them)."""
+
+    @staticmethod
+    def _no_input(y):
+        y = as_float_array(y, "y", ndim=1)
+        return y, np.zeros(y.shape[0])
+
+    def predict(self, y, k=1):
+        r"""k-step-ahead prediction :math:`\hat y_{t|t-k} = (1 - \bar H_k A/C)\,y_t`.
+
+        :math:`\bar H_k` is the impulse response of H = C/A truncated to k
+        terms (Ljung 1999, eq. 3.31); signals are zero before the first
+        sample.
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+        k : int
+            Horizon, ``>= 1`` (default 1).
+
+        Returns
+        -------
+        ndarray, shape (N,)
+        """
+        y, u = self._no_input(y)
+        return super().predict(y, u, k=k)
+
+    def simulate(self, noise):
+        r"""The output driven by a noise sequence: :math:`y_t = C(q)/A(q)\,e_t` (zero initial conditions).
+
+        Parameters
+        ----------
+        noise : array_like, shape (N,)
+
+        Returns
+        -------
+        ndarray, shape (N,)
+        """
+        self._check_fitted()
+        e = as_float_array(noise, "noise", ndim=1)
+        A, _, C, _ = self._polys()
+        return signal.lfilter(C, A, e)
+
+    def fit_percent(self, y, *, k=1):
+        """Normalised fit (NRMSE, percent) of the k-step prediction (default k = 1)."""
+        from ..diagnostics import fit_percent
+
+        y = as_float_array(y, "y", ndim=1)
+        return fit_percent(y, self.predict(y, k=check_int(k, "k", low=1)))
+
+    def to_control(self, form="tf"):
+        r"""The noise model :math:`H = C(q)/A(q)` (input e, output y) as a python-control system.
+
+        Parameters
+        ----------
+        form : {"tf", "ss"}
+
+        Returns
+        -------
+        control.TransferFunction or control.StateSpace
+            Discrete, with ``dt`` the model's sample time; its forced
+            response to e equals :meth:`simulate`.
+
+        Raises
+        ------
+        ImportError
+            If python-control is not installed (``pip install 'adaptid[control]'``).
+        """
+        check_choice(form, "form", ("tf", "ss"))
+        self._check_fitted()
+        try:
+            import control
+        except ImportError as err:  # pragma: no cover - depends on the extra
+            raise ImportError("to_control needs python-control: pip install 'adaptid[control]'") from err
+        A, _, C, _ = self._polys()
+        L = max(A.size, C.size)
+        num, den = np.zeros(L), np.zeros(L)
+        num[: C.size], den[: A.size] = C, A
+        sys = control.tf(num, den, self.dt)
+        return sys if form == "tf" else control.tf2ss(sys)
+
+    def __repr__(self):
+        orders = ", ".join(f"{k}={getattr(self, k)}" for k in self._order_names)
+        state = "fitted" if self.theta is not None else "not fitted"
+        return f"{type(self).__name__}({orders}, dt={self.dt:g}) [{state}]"
+
+
+class AR(_TimeSeries, ARX):
+    r"""Autoregressive model :math:`A(q)y_k = e_k`, identified by (recursive) least squares.
+
+    .. math::
+
+        y_k + a_1y_{k-1} + \dots + a_{n_a}y_{k-n_a} = e_k,\qquad
+        \theta = [a_1, \dots, a_{n_a}]
+
+    (MATLAB's ``ar`` with the ``"ls"`` approach and its ``recursiveAR``).
+    The rows are the samples k = n_a … N-1 (no assumed initial values), so
+    :meth:`fit` is the conditional least squares of
+    :class:`statsmodels.tsa.ar_model.AutoReg` (``trend="n"``), whose
+    coefficients are :math:`-a_j`. ``cov`` is
+    :math:`\hat\sigma^2(\Phi^T\Phi)^{-1}` with
+    :math:`\hat\sigma^2 = \sum\varepsilon^2/(N - 2n_a)` (the N - n_a rows less the n_a parameters).
+
+    Parameters
+    ----------
+    na : int
+        Order, ``>= 1``.
+    dt : float
+        Sample time (default 1.0).
+
+    Attributes
+    ----------
+    theta, cov, stderr, residuals, noise_variance, names, A, C
+        As for :class:`ARX` (``names = ("a1", …)``, C = [1]).
+
+    References
+    ----------
+    .. [1] L. Ljung, *System Identification: Theory for the User*, 2nd ed.,
+       Prentice Hall, 1999, sec. 7.3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import lfilter
+    >>> from adaptid.models import AR
+    >>> e = np.random.default_rng(0).standard_normal(5000)
+    >>> y = lfilter([1.0], [1, -1.5, 0.7], e)
+    >>> m = AR(2).fit(y)
+    >>> bool(np.allclose(m.theta, [-1.5, 0.7], atol=0.03))
+    True
+    """
+
+    _order_names = ("na",)
+
+    def __init__(self, na, *, dt=1.0):
+        super().__init__(check_int(na, "na", low=1), 0, 1, dt=dt)
+
+    def fit(self, y):
+        r"""Least-squares fit (QR, :func:`adaptid.lstsq`) on the rows k = n_a … N-1.
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+
+        Returns
+        -------
+        self
+        """
+        return super().fit(*self._no_input(y))
+
+    def fit_recursive(self, y, estimator=None):
+        r"""Recursive least squares with a core estimator (MATLAB's ``recursiveAR``).
+
+        The regressors :math:`[-y_{k-1}, \dots, -y_{k-n_a}]` do not depend on
+        the estimate, so a copy of ``estimator`` runs over them in one
+        compiled pass (see :meth:`ARX.fit_recursive`).
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+        estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
+            With ``n_params = na``; default ``adaptid.RLS(na)``.
+
+        Returns
+        -------
+        Trajectory
+        """
+        return super().fit_recursive(*self._no_input(y), estimator)
+
+
+class ARMA(_TimeSeries, ARMAX):
+    r"""ARMA model :math:`A(q)y_k = C(q)e_k`.
+
+    .. math::
+
+        y_k + a_1y_{k-1} + \dots + a_{n_a}y_{k-n_a}
+          = e_k + c_1e_{k-1} + \dots + c_{n_c}e_{k-n_c},\qquad
+        \theta = [a_1..a_{n_a},\ c_1..c_{n_c}]
+
+    (MATLAB's ``armax`` without input and its ``recursiveARMA``). The
+    prediction errors are :math:`\varepsilon = A(q)/C(q)\,y` on the rows
+    k = n_a … N-1 with zero initial conditions (the *conditional*
+    likelihood):
+
+    * :meth:`fit` — Hannan–Rissanen (a long AR model's residuals as the
+      innovations, least squares on :math:`[-y_{k-j}, \hat e_{k-j}]`, one
+      Gauss–Newton step), then, by default, the prediction-error
+      minimisation of :math:`\sum\varepsilon_k^2(\theta)`, the conditional
+      maximum-likelihood estimate for Gaussian e. It differs from the exact
+      likelihood of :class:`statsmodels.tsa.arima.model.ARIMA` by terms of
+      order 1/N.
+    * :meth:`fit_recursive` — recursive extended least squares (RELS) with
+      any core estimator, as :meth:`ARMAX.fit_recursive`.
+
+    Roots of C outside the unit circle are reflected inside.
+
+    Parameters
+    ----------
+    na : int
+        Order of A, ``>= 1``.
+    nc : int
+        Order of C, ``>= 0``.
+    dt : float
+        Sample time (default 1.0).
+
+    References
+    ----------
+    .. [1] E. J. Hannan, J. Rissanen, "Recursive estimation of mixed
+       autoregressive-moving average order", *Biometrika* 69(1), 1982.
+    .. [2] L. Ljung, *System Identification: Theory for the User*, 2nd ed.,
+       Prentice Hall, 1999, secs. 7.3, 11.3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import lfilter
+    >>> from adaptid.models import ARMA
+    >>> e = np.random.default_rng(1).standard_normal(5000)
+    >>> y = lfilter([1, 0.5], [1, -0.8], e)
+    >>> m = ARMA(1, 1).fit(y)
+    >>> bool(np.allclose(m.theta, [-0.8, 0.5], atol=0.05))
+    True
+    """
+
+    _order_names = ("na", "nc")
+
+    def __init__(self, na, nc, *, dt=1.0):
+        super().__init__(check_int(na, "na", low=1), 0, nc, 1, dt=dt)
+
+    def fit(self, y, *, refine=True, arx_order=None):
+        r"""Hannan–Rissanen, then (``refine=True``, default) prediction-error minimisation.
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+        refine : bool
+            Minimise :math:`\sum\varepsilon_k^2(\theta)` from the
+            Hannan–Rissanen estimate (default True).
+        arx_order : int, optional
+            Order of the long AR model (see :meth:`ARMAX.fit`).
+
+        Returns
+        -------
+        self
+        """
+        return super().fit(*self._no_input(y), refine=refine, arx_order=arx_order)
+
+    def fit_recursive(self, y, estimator=None, *, refine=False):
+        r"""Recursive extended least squares (MATLAB's ``recursiveARMA``), one compiled pass.
+
+        See :meth:`ARMAX.fit_recursive`: the regressor
+        :math:`[-y_{k-1}, \dots, -y_{k-n_a}, \varepsilon_{k-1}, \dots, \varepsilon_{k-n_c}]`
+        holds the a-posteriori residuals; any RLS (with a forgetting
+        strategy), SlidingWindowRLS or KalmanRLS with ``n_params = na + nc``.
+
+        Parameters
+        ----------
+        y : array_like, shape (N,)
+        estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
+        refine : bool
+            Follow with the prediction-error refinement.
+
+        Returns
+        -------
+        Trajectory
+        """
+        return super().fit_recursive(*self._no_input(y), estimator, refine=refine)
