@@ -8,7 +8,7 @@ import numpy as np
 
 from .._exceptions import DefinitenessLossWarning
 from .._validation import param_error
-from ._kernels import pseudolinear_run
+from .._kernels._pseudolinear import pseudolinear_run
 
 __all__ = ["estimator_settings", "run_pseudolinear", "run_signals", "signal_spec"]
 

@@ -13,8 +13,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._config import NJIT
-from .._kernels._ud import _bierman_apply, _bierman_prep, _strategy_step, _time_update
+from .._config import NJIT, NJIT_INLINE
+from ._bierman import _bierman_apply, _bierman_prep, _time_update
+from ._strategy import _strategy_step
 
 __all__ = ["pseudolinear_run"]
 
@@ -48,6 +49,48 @@ def _window_resolve(theta, U, D, theta_s, U_s, D_s, L, Bphi, By, k, M, lam, f, v
             theta[i] += b[i] * g
 
 
+@njit(**NJIT_INLINE)
+def _window_step(theta, U, D, theta_s, U_s, D_s, phi, yk, Bphi, By, k, M, lam, cM, logl, rtol,
+                 f, v, b, n):
+    """Remove sample k − M (weight c = λ^M) and buffer sample k; re-solve the
+    window from the buffer instead when the removal would lose definiteness.
+    Returns True for a re-solve."""
+    slot = k % M
+    resolve = False
+    if k >= M:
+        q = _bierman_prep(U, D, Bphi[slot], f, v, n)
+        if 1.0 - cM * q < rtol:
+            resolve = True
+        else:
+            eo = By[slot]
+            for i in range(n):
+                eo -= Bphi[slot, i] * theta[i]
+            a = _bierman_apply(U, D, -1.0 / cM, f, v, b, n)
+            g = eo / a
+            for i in range(n):
+                theta[i] += b[i] * g
+    for j in range(n):
+        Bphi[slot, j] = phi[j]
+    By[slot] = yk
+    if resolve:
+        _window_resolve(theta, U, D, theta_s, U_s, D_s, (k + 1) * logl, Bphi, By,
+                        k, M, lam, f, v, b, n)
+    return resolve
+
+
+@njit(**NJIT_INLINE)
+def _signals_step(alpha, mix, phi, theta, yk, Vk, vh, n, L):
+    """The signals v_g after the update of sample k, and their lag history."""
+    for g in range(Vk.shape[0]):
+        vk = alpha[g] * yk
+        for j in range(n):
+            vk += mix[g, j] * phi[j] * theta[j]
+        Vk[g] = vk
+        for lag in range(L - 1, 0, -1):
+            vh[g, lag] = vh[g, lag - 1]
+        vh[g, 0] = vk
+
+
 @njit(**NJIT)
 def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
                      U, D, lam, Q, kalman, r2, M, rtol, mode, fp, pmax, Th, E, V, Lk):
@@ -73,7 +116,7 @@ def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
         \theta \leftarrow \theta + K\varepsilon_k,\quad
         P \leftarrow (P - K\varphi_k^T P)/\lambda + Q,
 
-    done as the core estimators do it (:mod:`adaptid._kernels._ud`):
+    done as the core estimators do it (:mod:`adaptid._kernels._bierman`):
     ``D ← D/λ``, a Bierman update with weight r₂, and for the Kalman
     recursion (``kalman``) the time update ``P + Q`` re-factorised. With a
     window M > 0 the regressor actually used is stored in a buffer and the
@@ -96,7 +139,6 @@ def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
     N, nfix = Phi_fix.shape
     nd = dyn_group.shape[0]
     n = nfix + nd
-    G = V.shape[1]
     L = 1
     for j in range(nd):
         L = max(L, dyn_lag[j])
@@ -146,36 +188,10 @@ def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
             Lk[k] = lam
         if kalman and not _time_update(U, D, Q, W, n):
             return -1
-        if M > 0:
-            slot = k % M
-            resolve = False
-            if k >= M:
-                q = _bierman_prep(U, D, Bphi[slot], f, v, n)
-                if 1.0 - cM * q < rtol:
-                    resolve = True
-                else:
-                    eo = By[slot]
-                    for i in range(n):
-                        eo -= Bphi[slot, i] * theta[i]
-                    a = _bierman_apply(U, D, -1.0 / cM, f, v, b, n)
-                    g = eo / a
-                    for i in range(n):
-                        theta[i] += b[i] * g
-            for j in range(n):
-                Bphi[slot, j] = phi[j]
-            By[slot] = Y[k]
-            if resolve:
-                rebuilds += 1
-                _window_resolve(theta, U, D, theta_s, U_s, D_s, (k + 1) * logl, Bphi, By,
-                                k, M, lam, f, v, b, n)
+        if M > 0 and _window_step(theta, U, D, theta_s, U_s, D_s, phi, Y[k], Bphi, By, k, M,
+                                  lam, cM, logl, rtol, f, v, b, n):
+            rebuilds += 1
         for j in range(n):
             Th[k, j] = theta[j]
-        for g in range(G):
-            vk = alpha[g] * Y[k]
-            for j in range(n):
-                vk += mix[g, j] * phi[j] * theta[j]
-            V[k, g] = vk
-            for lag in range(L - 1, 0, -1):
-                vh[g, lag] = vh[g, lag - 1]
-            vh[g, 0] = vk
+        _signals_step(alpha, mix, phi, theta, Y[k], V[k], vh, n, L)
     return rebuilds
