@@ -151,7 +151,7 @@ def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
     theta2 = theta.reshape((n, 1))
     ek = np.empty(1)
     yk = np.empty(1)
-    vh = np.zeros((G, L))  # vh[g, l - 1] = v_g[k - l]
+    vh = np.zeros((V.shape[1], L))  # vh[g, l - 1] = v_g[k - l]
     Mb = max(M, 1)
     Bphi = np.zeros((Mb, n))
     By = np.zeros(Mb)
