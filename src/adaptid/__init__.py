@@ -36,6 +36,7 @@ _LAZY = {
     "Trajectory": "adaptid._trajectory",
     "estimator": "adaptid.estimators",
     "recursive_fit_stats": "adaptid.estimators",
+    "IDData": "adaptid.models",
     "lstsq": "adaptid._lstsq",
     "LSResult": "adaptid._lstsq",
     "constrained_lstsq": "adaptid.constrained",

@@ -34,6 +34,7 @@ from ._builders import (
     fir_regressors,
     trend_regressors,
 )
+from ._iddata import IDData
 from ._oe import OE
 from ._polymodel import NotFittedError
 from ._regression import Regression
@@ -46,6 +47,7 @@ _LAZY = {
 }
 
 __all__ = [
+    "IDData",
     "Regression",
     "arx_regressors",
     "fir_regressors",
