@@ -53,7 +53,7 @@ _LAZY = {
 }
 _SUBMODULES = (
     "estimators", "forgetting", "constrained", "continuous", "models", "diagnostics",
-    "datasets", "fleet", "sklearn",
+    "datasets", "fleet", "sklearn", "plot",
 )
 
 __all__ = [

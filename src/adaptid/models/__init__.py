@@ -20,6 +20,11 @@ aic / fpe / cov / to_control):
 * :class:`ARMAX` — extended least squares (recursive: RELS), optional
   prediction-error refinement;
 * :class:`OE` — pseudo-linear regression (recursive: RPLR), Steiglitz–McBride.
+
+The workflow on a measured record (:class:`IDData`, MATLAB's ``iddata``):
+:func:`select_order` (``arxstruc``/``selstruc``), :func:`compare` (fit %),
+:func:`resid` (residual tests), ``model.summary()`` /
+:func:`model_summary`, :func:`recursive_summary`.
 """
 
 from __future__ import annotations
@@ -38,7 +43,9 @@ from ._iddata import IDData
 from ._oe import OE
 from ._polymodel import NotFittedError
 from ._regression import Regression
+from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
+from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
 _LAZY = {
@@ -60,6 +67,14 @@ __all__ = [
     "ARMAX",
     "OE",
     "NotFittedError",
+    "compare",
+    "resid",
+    "select_order",
+    "CompareResult",
+    "ResidResult",
+    "OrderSelection",
+    "model_summary",
+    "recursive_summary",
 ]
 
 
