@@ -156,8 +156,11 @@ class ResidResult:
 
     Attributes
     ----------
-    e : ndarray, shape (N,)
-        One-step prediction errors on the record.
+    e : ndarray, shape (N - start,)
+        One-step prediction errors on the record from sample ``start`` on.
+    start : int
+        The first sample tested (the predictor's lags before it lie
+        outside the record).
     autocorrelation : dict
         ``acf`` (M + 1,), ``band``, ``q_stat`` (Ljung–Box), ``dof``, ``p_value``.
     cross_correlation : list of dict
@@ -168,6 +171,7 @@ class ResidResult:
     """
 
     e: np.ndarray
+    start: int
     autocorrelation: dict
     cross_correlation: list
     alpha: float
@@ -203,11 +207,13 @@ class ResidResult:
                 f"(white={self.white}); cross-correlation {ind}; alpha={self.alpha})")
 
 
-def resid(data, model, *, max_lag=25, alpha=0.01, ax=None):
+def resid(data, model, *, max_lag=25, alpha=0.01, ax=None, start=None):
     r"""Residual analysis on a record: MATLAB's ``resid``.
 
     The one-step prediction errors :math:`\varepsilon_k = y_k - \hat y_{k|k-1}`
-    of ``model`` on ``data`` (zero initial conditions), their normalised
+    of ``model`` on ``data`` (zero initial conditions; the first ``start``
+    samples, whose predictions need samples before the record, are left
+    out), their normalised
     autocorrelation at lags 0 … M with the Ljung–Box test, and for each
     input the cross-correlation :math:`r_{\varepsilon u}(\tau)`, τ = −M … M,
     with the portmanteau test over τ = 0 … M; bands
@@ -227,6 +233,10 @@ def resid(data, model, *, max_lag=25, alpha=0.01, ax=None):
         Level of the bands and tests (default 0.01).
     ax : sequence of 1 + m matplotlib Axes, optional
         If given, the figure (:func:`adaptid.plot.resid`) is drawn into them.
+    start : int, optional
+        First sample tested; default the model's first fitted row
+        ``model.index[0]`` (max(na, nk + nb − 1) for ARX), 0 if the model
+        has no ``index``.
 
     Returns
     -------
@@ -237,20 +247,24 @@ def resid(data, model, *, max_lag=25, alpha=0.01, ax=None):
     data = _as_iddata(data)
     _single_output(data)
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
-    N = len(data)
+    if start is None:
+        idx = getattr(model, "index", None)
+        start = int(np.asarray(idx)[0]) if idx is not None and np.size(idx) else 0
+    start = check_int(start, "start", low=0, high=len(data) - 3)
+    N = len(data) - start
     max_lag = check_int(max_lag, "max_lag", low=1, high=N - 1)
     y, u = data.y, data.u
-    e = y - np.asarray(model.predict(y, u, k=1), dtype=np.float64).reshape(-1)
+    e = (y - np.asarray(model.predict(y, u, k=1), dtype=np.float64).reshape(-1))[start:]
     if not np.ptp(e) > 0:
         raise param_error("model", "a model whose residuals on data are not constant",
                           "<constant residuals>")
     ac = ljung_box(e, max_lag, alpha)
-    cc = [cross_correlation(data.inputs[:, j], e, max_lag, alpha) for j in range(data.n_inputs)
-          if np.ptp(data.inputs[:, j]) > 0]
-    res = ResidResult(e=e, autocorrelation=ac, cross_correlation=cc, alpha=alpha,
+    U = data.inputs[start:]
+    cc = [cross_correlation(U[:, j], e, max_lag, alpha) for j in range(data.n_inputs)
+          if np.ptp(U[:, j]) > 0]
+    res = ResidResult(e=e, start=start, autocorrelation=ac, cross_correlation=cc, alpha=alpha,
                       y_name=data.y_names[0],
-                      u_names=tuple(n for j, n in enumerate(data.u_names)
-                                    if np.ptp(data.inputs[:, j]) > 0))
+                      u_names=tuple(n for j, n in enumerate(data.u_names) if np.ptp(U[:, j]) > 0))
     if ax is not None:
         object.__setattr__(res, "figure", res.plot(ax=ax))
     return res
