@@ -355,7 +355,8 @@ class _PolyModel:
         Returns
         -------
         control.TransferFunction or control.StateSpace
-            With ``dt`` equal to the model's sample time.
+            With ``dt`` equal to the model's sample time and the input and
+            output names of the data it was fitted to.
 
         Raises
         ------
@@ -375,10 +376,12 @@ class _PolyModel:
             L = max(den.size, Bs[i].size)
             nums.append(_pad_to(Bs[i], L))
             dens.append(_pad_to(den, L))
+        io = {"inputs": list(getattr(self, "u_names", ())) or None,
+              "outputs": [getattr(self, "y_name", "y")]}
         if form == "tf":
             if self._m == 1:
-                return control.tf(nums[0], dens[0], self.dt)
-            return control.tf([nums], [dens], self.dt)
+                return control.tf(nums[0], dens[0], self.dt, **io)
+            return control.tf([nums], [dens], self.dt, **io)
         blocks = [signal.tf2ss(np.trim_zeros(nb_, "f") if np.any(nb_) else np.zeros(1), db_)
                   for nb_, db_ in zip(nums, dens)]
         from scipy.linalg import block_diag
@@ -387,7 +390,7 @@ class _PolyModel:
         Bss = block_diag(*[b[1] for b in blocks])
         Css = np.hstack([b[2] for b in blocks])
         Dss = np.hstack([b[3] for b in blocks])
-        return control.ss(Ass, Bss, Css, Dss, self.dt)
+        return control.ss(Ass, Bss, Css, Dss, self.dt, **io)
 
     # -------------------------------------------------------- recursive util
     def _time_of(self, index):
