@@ -350,7 +350,8 @@ def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
     >>> from adaptid.models import select_order
     >>> rng = np.random.default_rng(0)
     >>> u = rng.standard_normal(2000)
-    >>> y = lfilter([0, 0, 1.0, 0.5], [1, -1.2, 0.5], u) + 0.05 * rng.standard_normal(2000)
+    >>> e = 0.05 * rng.standard_normal(2000)
+    >>> y = lfilter([0, 0, 1.0, 0.5], [1, -1.2, 0.5], u) + lfilter([1], [1, -1.2, 0.5], e)
     >>> select_order((y, u), na=[1, 2, 3], nb=[1, 2, 3], nk=[1, 2, 3]).best
     (2, 2, 2)
     """
