@@ -174,3 +174,21 @@ def test_recursive_summary_uses_the_one_sigma_rule(rng):
     # p-values from Student's t with the (non-integer) effective dof
     np.testing.assert_allclose(s.params[:, 3], 2 * stats.t.sf(np.abs(est.theta / fs.stderr), fs.dof))
     assert s.names == ("theta0", "theta1", "theta2")
+
+
+def test_pandas_and_iddata_names_flow_into_the_fit(rng):
+    u = rng.standard_normal(400)
+    y = np.convolve(u, [0.0, 1.0, 0.5])[:400] + 0.1 * rng.standard_normal(400)
+    df = pd.DataFrame({"temp": y, "heat": u})
+    m = ARX(1, 2, 1).fit(df["temp"], df["heat"])
+    ref = ARX(1, 2, 1).fit(y, u)
+    np.testing.assert_array_equal(m.theta, ref.theta)          # the same numbers as from arrays
+    assert m.y_name == "temp" and m.u_names == ("heat",)
+    s = m.summary()
+    assert "cross-corr. p (heat, lags 0..25)" in s.stats and "output: temp; inputs: heat" in str(s)
+    G = m.to_control()
+    assert list(G.input_labels) == ["heat"] and list(G.output_labels) == ["temp"]
+    with pytest.raises(TypeError, match="u must be None when the first argument is an IDData"):
+        ARX(1, 2, 1).fit(IDData(y, u), u)
+    with pytest.raises(TypeError, match="u must be an input signal"):
+        ARX(1, 2, 1).fit(y)

@@ -158,7 +158,7 @@ class LSResult:
         return information_criteria(self.llf, self.nobs, self.rank)["bic"]
 
     def summary(self, names=None, *, alpha=0.05):
-        r"""The regression table: estimate, stderr, t, p, confidence limits; N, dof, σ̂², R², ℓ, AIC, BIC.
+        r"""The regression table: estimates with stderr, t, p, limits; N, dof, σ̂², R², ℓ, AIC, BIC.
 
         Parameters
         ----------

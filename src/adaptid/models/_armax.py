@@ -33,7 +33,8 @@ class ARMAX(_PseudoLinearModel):
       squares on the extended regressor, one Gauss–Newton correction.
 
     RELS is consistent when :math:`1/C(e^{i\omega}) - 1/2` is strictly
-    positive real; Hannan–Rissanen for a long enough ARX order. :meth:`fit` then (``refine=True``, the default) refines the estimate by
+    positive real; Hannan–Rissanen for a long enough ARX order. :meth:`fit`
+    then (``refine=True``, the default) refines the estimate by
     minimising the prediction-error criterion :math:`\sum_k\varepsilon_k^2(\theta)`
     (:func:`scipy.optimize.least_squares` with the analytic gradient
     :math:`\psi_k = \varphi_k/C(q)`), which is the maximum-likelihood

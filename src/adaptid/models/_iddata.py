@@ -222,7 +222,9 @@ class IDData:
         """
         kind = check_choice(kind, "kind", ("constant", "linear"))
         N = len(self)
-        X = np.ones((N, 1)) if kind == "constant" else np.column_stack([np.ones(N), np.arange(N) / max(N - 1, 1)])
+        X = np.ones((N, 1))
+        if kind == "linear":
+            X = np.column_stack([X, np.arange(N) / max(N - 1, 1)])
 
         def fitted(S):
             if S.shape[1] == 0:

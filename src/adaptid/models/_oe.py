@@ -43,7 +43,8 @@ class OE(_PseudoLinearModel):
       Steiglitz–McBride step is fitted to y minus the other inputs' current
       simulated outputs, input after input, until θ settles (backfitting).
 
-    :meth:`fit` then (``refine=True``, the default) minimises :math:`\sum_k(y_k - \sum_i w^{(i)}_k(\theta))^2`
+    :meth:`fit` then (``refine=True``, the default) minimises
+    :math:`\sum_k(y_k - \sum_i w^{(i)}_k(\theta))^2`
     with :func:`scipy.optimize.least_squares` (analytic gradient:
     :math:`\partial w^{(i)}/\partial b^{(i)}_j = u^{(i)}_{k-n_{k,i}-j}/F_i(q)`,
     :math:`\partial w^{(i)}/\partial f^{(i)}_j = -w^{(i)}_{k-j}/F_i(q)`).

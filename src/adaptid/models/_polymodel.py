@@ -318,7 +318,7 @@ class _PolyModel:
 
     # ------------------------------------------------------------ summary
     def summary(self, *, alpha=0.05, max_lag=25):
-        r"""The fit's table: parameters with stderr, t, p and limits; N, dof, σ̂², ℓ, AIC, BIC, FPE, fit %, residual tests.
+        r"""The fit's summary table (parameters, information criteria, fit %, residual tests).
 
         Computed on the estimation data by :func:`adaptid.models.model_summary`
         (which see for every number's definition).

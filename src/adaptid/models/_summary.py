@@ -69,7 +69,8 @@ def model_summary(model, *, alpha=0.05, max_lag=25):
     y_name = getattr(model, "y_name", "y")
     u_names = tuple(getattr(model, "u_names", ())) or tuple(f"u{i + 1}" for i in range(U.shape[1]))
     if np.ptp(y) > 0:
-        st["fit % (1-step, estimation)"] = fit_percent(y, model.predict(y, U if U.shape[1] else None, k=1))
+        y1 = model.predict(y, U if U.shape[1] else None, k=1)
+        st["fit % (1-step, estimation)"] = fit_percent(y, y1)
         if U.shape[1]:
             st["fit % (simulation, estimation)"] = fit_percent(y, model.simulate(U))
     M = _lags(max_lag, N)
@@ -80,7 +81,8 @@ def model_summary(model, *, alpha=0.05, max_lag=25):
         for j, name in enumerate(u_names):
             uj = U[idx, j]
             if np.ptp(uj) > 0:
-                st[f"cross-corr. p ({name}, lags 0..{M})"] = cross_correlation(uj, eps, M, alpha)["p_value"]
+                p_cc = cross_correlation(uj, eps, M, alpha)["p_value"]
+                st[f"cross-corr. p ({name}, lags 0..{M})"] = p_cc
     orders = ", ".join(f"{k}={getattr(model, k)}" for k in getattr(model, "_order_names", ()))
     title = f"{type(model).__name__}({orders}), dt={getattr(model, 'dt', 1.0):g}"
     notes = (f"output: {y_name}; inputs: {', '.join(u_names) or 'none'}",

@@ -375,11 +375,13 @@ def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
     na_max, nk_min, ulag_max = max(nas), min(nks), max(nks) + max(nbs) - 1
     s = max(na_max, ulag_max)
     if N - s <= max(nas) + max(nbs):
-        raise param_error("data", f"longer than the largest structure needs (> {s + na_max + max(nbs)} samples)",
+        need = s + na_max + max(nbs)
+        raise param_error("data", f"longer than the largest structure needs (> {need} samples)",
                           f"<{N} samples>")
     rows = np.arange(s, N)
     # the shared regressor matrix: -y lags 1..na_max, then u lags nk_min..ulag_max
-    Y_cols = np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max else np.zeros((rows.size, 0))
+    Y_cols = (np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max
+              else np.zeros((rows.size, 0)))
     U_cols = np.column_stack([u[rows - j] for j in range(nk_min, ulag_max + 1)])
     target = y[rows]
     n_rows = rows.size
@@ -402,7 +404,8 @@ def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
         for key, v in zip(out, (a, b, k, d, V, aic, fpe, fv)):
             out[key].append(v)
     table = {key: np.asarray(v) for key, v in out.items()}
-    score = {"aic": table["aic"], "fpe": table["fpe"], "validation": -table["fit_validation"]}[criterion]
+    score = {"aic": table["aic"], "fpe": table["fpe"],
+             "validation": -table["fit_validation"]}[criterion]
     if criterion == "validation" and not np.isfinite(score).any():
         raise param_error("validation", "a record on which some structure's simulation is finite",
                           "<no finite fit>")
