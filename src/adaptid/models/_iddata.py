@@ -125,10 +125,12 @@ class IDData:
     # ------------------------------------------------------------ access
     @property
     def y(self):
+        """Outputs, shape (N,) for one output, else (N, p)."""
         return self.outputs[:, 0] if self.outputs.shape[1] == 1 else self.outputs
 
     @property
     def u(self):
+        """Inputs, shape (N,) for one input, (N, m) for several, None without inputs."""
         m = self.inputs.shape[1]
         if m == 0:
             return None
@@ -136,10 +138,12 @@ class IDData:
 
     @property
     def n_outputs(self) -> int:
+        """Number of outputs p."""
         return self.outputs.shape[1]
 
     @property
     def n_inputs(self) -> int:
+        """Number of inputs m (0 for a time series)."""
         return self.inputs.shape[1]
 
     @property
