@@ -54,6 +54,8 @@ class _PolyModel:
     """Common base; see :class:`ARX`, :class:`ARMAX`, :class:`OE`."""
 
     _structure = "poly"
+    #: False for time-series models (AR, ARMA): ``u`` may then be None (m = 0 inputs)
+    _needs_input = True
 
     def _init_orders(self, na, nb, nc, nf, nk, dt):
         self.na = check_int(na, "na", low=0)
@@ -84,11 +86,14 @@ class _PolyModel:
         from ._iddata import as_signals
 
         y, u, data = as_signals(y, u)
-        if u is None:
+        if u is None and self._needs_input:
             raise param_error("u", "an input signal (or an IDData with inputs)", None,
                               exc=TypeError)
         y = as_float_array(y, "y", ndim=1)
-        U, single = _as_inputs(u, y.shape[0])
+        if u is None:
+            U, single = np.zeros((y.shape[0], 0)), True
+        else:
+            U, single = _as_inputs(u, y.shape[0])
         if fitting:
             self._set_inputs(U.shape[1], single)
             if data is not None:
@@ -96,7 +101,8 @@ class _PolyModel:
                 self.dt = data.dt
             else:
                 self.y_name = "y"
-                self.u_names = ("u",) if single else tuple(f"u{i + 1}" for i in range(U.shape[1]))
+                self.u_names = (() if U.shape[1] == 0 else ("u",) if single
+                                else tuple(f"u{i + 1}" for i in range(U.shape[1])))
             self._fit_signals = (y, U)
             self._fit_data = data
         else:
