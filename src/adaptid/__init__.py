@@ -36,6 +36,7 @@ _LAZY = {
     "Trajectory": "adaptid.estimators",
     "estimator": "adaptid.estimators",
     "recursive_fit_stats": "adaptid.estimators",
+    "IDData": "adaptid.models",
     "lstsq": "adaptid._lstsq",
     "LSResult": "adaptid._lstsq",
     "constrained_lstsq": "adaptid.constrained",
@@ -52,7 +53,7 @@ _LAZY = {
 }
 _SUBMODULES = (
     "estimators", "forgetting", "constrained", "continuous", "models", "diagnostics",
-    "datasets", "fleet", "sklearn",
+    "datasets", "fleet", "sklearn", "plot",
 )
 
 __all__ = [

@@ -38,6 +38,159 @@ class LSResult:
     rank: int
     _R: np.ndarray = field(repr=False)
     _single: bool = field(repr=False, default=True)
+    _y: np.ndarray | None = field(repr=False, default=None)          # (N, p) as given
+    _weights: np.ndarray | None = field(repr=False, default=None)    # (N,) or None
+    _k_constant: int = field(repr=False, default=0)
+    names: tuple | None = field(repr=False, default=None)
+
+    # ---------------------------------------------------- statsmodels' names
+    def _need_data(self, what):
+        if self._y is None:
+            raise ValueError(f"{what} needs the data of the fit (a result made by adaptid.lstsq)")
+
+    @property
+    def nobs(self) -> int:
+        """Number of observations N."""
+        return int(self.residuals.shape[0])
+
+    @property
+    def params(self) -> np.ndarray:
+        """The estimate (statsmodels' name for :attr:`theta`)."""
+        return self.theta
+
+    @property
+    def bse(self) -> np.ndarray:
+        """Standard errors (statsmodels' name for :attr:`stderr`)."""
+        return self.stderr
+
+    @property
+    def df_resid(self) -> int:
+        """Residual degrees of freedom N − n (statsmodels' ``df_resid``)."""
+        return self.dof
+
+    @property
+    def df_model(self) -> int:
+        """n minus the number of constant columns (statsmodels' ``df_model``)."""
+        return self.rank - self._k_constant
+
+    @cached_property
+    def ssr(self):
+        r"""Weighted sum of squared residuals :math:`\sum_k w_k r_k^2` (per output)."""
+        r2 = np.asarray(self.residuals) ** 2
+        if self._weights is not None:
+            r2 = r2 * (self._weights if r2.ndim == 1 else self._weights[:, None])
+        with np.errstate(over="ignore"):
+            out = r2.sum(axis=0)
+        return float(out) if self._single else out
+
+    @cached_property
+    def tvalues(self) -> np.ndarray:
+        """t statistics θ̂/se, shape like ``theta``."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.asarray(self.theta) / self.stderr
+
+    @cached_property
+    def pvalues(self) -> np.ndarray:
+        """Two-sided p-values of the t statistics, Student's t with N − n dof."""
+        if self.dof <= 0:
+            return np.full(np.shape(self.theta), np.nan)
+        return 2.0 * stats.t.sf(np.abs(self.tvalues), self.dof)
+
+    @cached_property
+    def _tss(self):
+        self._need_data("rsquared")
+        Y = self._y
+        w = np.ones(Y.shape[0]) if self._weights is None else self._weights
+        if self._k_constant:
+            mean = (w @ Y) / w.sum()
+            tss = w @ ((Y - mean) ** 2)
+        else:
+            tss = w @ (Y ** 2)
+        return tss[0] if self._single else tss
+
+    @cached_property
+    def rsquared(self):
+        r"""Coefficient of determination, statsmodels' rule.
+
+        :math:`1 - \mathrm{SSR}/\mathrm{TSS}`, TSS centred (weighted mean)
+        when Φ has a constant column, uncentred otherwise.
+        """
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = 1.0 - self.ssr / self._tss
+        return float(out) if self._single else out
+
+    @cached_property
+    def rsquared_adj(self):
+        r"""Adjusted R²: :math:`1 - \frac{N - k_c}{N - n}(1 - R^2)`, k_c constant columns."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = 1.0 - (self.nobs - self._k_constant) / self.dof * (1.0 - np.asarray(self.rsquared))
+        return float(out) if self._single else out
+
+    @cached_property
+    def llf(self):
+        r"""Gaussian log-likelihood at the ML variance (statsmodels' OLS / WLS ``llf``).
+
+        .. math::
+
+            \ell = -\frac N2\left(\log 2\pi + \log\frac{\mathrm{SSR}}{N} + 1\right)
+                   + \frac12\sum_k \log w_k .
+        """
+        from ._teststats import gaussian_llf
+
+        lw = 0.0
+        if self._weights is not None:
+            with np.errstate(divide="ignore"):
+                lw = float(np.sum(np.log(self._weights)))
+        return gaussian_llf(self.ssr, self.nobs, log_weights=lw)
+
+    @property
+    def aic(self):
+        r"""Akaike's criterion :math:`-2\ell + 2n` (statsmodels' ``aic``)."""
+        from ._teststats import information_criteria
+
+        return information_criteria(self.llf, self.nobs, self.rank)["aic"]
+
+    @property
+    def bic(self):
+        r"""Schwarz's criterion :math:`-2\ell + n\log N` (statsmodels' ``bic``)."""
+        from ._teststats import information_criteria
+
+        return information_criteria(self.llf, self.nobs, self.rank)["bic"]
+
+    def summary(self, names=None, *, alpha=0.05):
+        r"""The regression table: estimates with stderr, t, p, limits; N, dof, σ̂², R², ℓ, AIC, BIC.
+
+        Parameters
+        ----------
+        names : sequence of str, length n, optional
+            Parameter names (default: the columns of a DataFrame ``Phi``,
+            else ``theta0, theta1, …``).
+        alpha : float
+            Level of the confidence limits (default 0.05).
+
+        Returns
+        -------
+        adaptid._summary.Summary
+            ``str()`` gives the text table, ``_repr_html_`` the notebook one.
+        """
+        from ._summary import Summary, parameter_rows
+
+        alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
+        if not self._single:
+            raise ValueError("summary is for a single output: call lstsq per column of y")
+        n = np.size(self.theta)
+        names = tuple(names) if names is not None else (
+            self.names if self.names is not None else tuple(f"theta{i}" for i in range(n)))
+        if len(names) != n:
+            raise param_error("names", f"of length n={n}", f"<length {len(names)}>")
+        st = {"N": self.nobs, "dof": self.dof, "sigma^2": self.sigma2, "SSR": self.ssr}
+        if self._y is not None:
+            st.update({"R^2": self.rsquared, "adj. R^2": self.rsquared_adj,
+                       "log-likelihood": self.llf, "AIC": self.aic, "BIC": self.bic})
+        kind = "Least squares" if self._weights is None else "Weighted least squares"
+        return Summary(title=f"{kind} (QR)", names=names,
+                       params=parameter_rows(self.theta, self.stderr, self.dof, alpha),
+                       stats=st, alpha=alpha)
 
     @cached_property
     def _Rinv(self) -> np.ndarray:
@@ -137,6 +290,7 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     >>> np.allclose(res.theta, [1.0, 2.0])
     True
     """
+    names = tuple(str(c) for c in Phi.columns) if hasattr(Phi, "columns") else None
     Phi = as_float_array(Phi, "Phi", ndim=2)
     N, n = Phi.shape
     if n == 0:
@@ -148,7 +302,7 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     Y2 = Y.reshape(N, -1)
     ridge = check_scalar(ridge, "ridge", low=0.0)
     if weights is None:
-        sw = None
+        sw = w = None
     else:
         w = as_float_array(weights, "weights", shape=(N,))
         if (w < 0).any():
@@ -182,8 +336,12 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
         wr2 = resid ** 2 if sw is None else (sw[:, None] * resid) ** 2
         dof = N - n
         sigma2 = wr2.sum(axis=0) / dof if dof > 0 else np.full(Y2.shape[1], np.nan)
+    # constant columns, as statsmodels counts them (k_constant): zero range, non-zero value
+    k_const = int(np.count_nonzero((np.ptp(Phi, axis=0) == 0) & (Phi[0] != 0))) if N else 0
+    k_const = min(k_const, 1)
+    extra = dict(_y=Y2, _weights=w, _k_constant=k_const, names=names)
     if single:
         return LSResult(theta=theta[:, 0], residuals=resid[:, 0], sigma2=float(sigma2[0]),
-                        dof=dof, rank=rank, _R=R, _single=True)
+                        dof=dof, rank=rank, _R=R, _single=True, **extra)
     return LSResult(theta=theta, residuals=resid, sigma2=sigma2, dof=dof, rank=rank,
-                    _R=R, _single=False)
+                    _R=R, _single=False, **extra)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import check_choice, param_error
+from ..models._iddata import IDData
 from ._resources import data_file
 
 __all__ = ["DaisyData", "load_daisy", "DAISY_NAMES"]
@@ -70,9 +71,13 @@ _SPECS = {
 DAISY_NAMES = tuple(_SPECS)
 
 
-@dataclass(frozen=True, eq=False)
-class DaisyData:
-    r"""One DaISy data set (see :func:`load_daisy`).
+class DaisyData(IDData):
+    r"""One DaISy data set (see :func:`load_daisy`): an :class:`adaptid.IDData`.
+
+    The record's signals, names (the file's column names) and sample time
+    (``dt`` = ``Ts``, 1.0 when DaISy gives none) are those of
+    :class:`~adaptid.IDData`, so it goes straight into ``fit``,
+    :func:`adaptid.models.compare` and the other workflow functions.
 
     Attributes
     ----------
@@ -97,15 +102,12 @@ class DaisyData:
         The DaISy description (contributor, signals, references).
     """
 
-    name: str
-    daisy_id: str
-    u: np.ndarray
-    y: np.ndarray
-    Ts: float | None
-    time: np.ndarray | None
-    data: np.ndarray
-    columns: tuple
-    description: str
+    def __init__(self, *, name, daisy_id, u, y, Ts, time, data, columns, description,
+                 u_names, y_names):
+        super().__init__(y, u, dt=1.0 if Ts is None else Ts, time=time, y_names=y_names,
+                         u_names=u_names)
+        self.name, self.daisy_id, self.Ts = name, daisy_id, Ts
+        self.data, self.columns, self.description = data, columns, description
 
     def __repr__(self) -> str:
         return (f"DaisyData(name={self.name!r}, daisy_id={self.daisy_id!r}, "
@@ -131,7 +133,8 @@ def load_daisy(name):
     Returns
     -------
     DaisyData
-        ``u``, ``y`` (1-D for one signal, (N, 2) for the CD player),
+        An :class:`adaptid.IDData` (``dt`` = ``Ts``; names from the file's
+        columns) with ``u``, ``y`` (1-D for one signal, (N, 2) for the CD player),
         ``Ts``, ``time``, the raw ``data`` and the ``description``.
 
     Raises
@@ -158,8 +161,8 @@ def load_daisy(name):
     --------
     >>> from adaptid.datasets import load_daisy
     >>> d = load_daisy("dryer")
-    >>> d.u.shape, d.y.shape, d.Ts
-    ((1000,), (1000,), 0.08)
+    >>> d.u.shape, d.y.shape, d.Ts, d.dt
+    ((1000,), (1000,), 0.08, 0.08)
     """
     if not isinstance(name, str):
         raise param_error("name", "a str", name, exc=TypeError)
@@ -177,4 +180,6 @@ def load_daisy(name):
         Ts=spec.Ts,
         time=None if spec.time_col is None else np.ascontiguousarray(raw[:, spec.time_col]),
         data=raw, columns=spec.columns, description=spec.description,
+        u_names=tuple(spec.columns[i] for i in spec.u_cols),
+        y_names=tuple(spec.columns[i] for i in spec.y_cols),
     )

@@ -2,11 +2,10 @@ r"""Loader of the EMPS benchmark data (Janot, Gautier & Brunot 2019)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from .._validation import check_choice, param_error
+from ..models._iddata import IDData
 from ._resources import data_file
 
 __all__ = ["EMPSData", "load_emps"]
@@ -14,9 +13,11 @@ __all__ = ["EMPSData", "load_emps"]
 _FILES = {"estimation": "DATA_EMPS.mat", "validation": "DATA_EMPS_PULSES.mat"}
 
 
-@dataclass(frozen=True, eq=False)
-class EMPSData:
-    r"""One record of the EMPS benchmark (see :func:`load_emps`).
+class EMPSData(IDData):
+    r"""One record of the EMPS benchmark (see :func:`load_emps`): an :class:`adaptid.IDData`.
+
+    As identification data its output is the position ``qm`` and its input
+    the controller output ``vir`` (``dt`` = ``Ts``, ``time`` = ``t``).
 
     Attributes
     ----------
@@ -43,16 +44,10 @@ class EMPSData:
         in the file, returned as float64); ``None`` for the estimation set.
     """
 
-    kind: str
-    t: np.ndarray
-    qm: np.ndarray
-    qg: np.ndarray
-    vir: np.ndarray
-    gtau: float
-    kp: float
-    kv: float
-    Ts: float
-    pulses_N: np.ndarray | None = None
+    def __init__(self, *, kind, t, qm, qg, vir, gtau, kp, kv, Ts, pulses_N=None):
+        super().__init__(qm, vir, dt=Ts, time=t, y_names="qm", u_names="vir")
+        self.kind, self.qm, self.qg, self.vir = kind, qm, qg, vir
+        self.gtau, self.kp, self.kv, self.Ts, self.pulses_N = gtau, kp, kv, Ts, pulses_N
 
     @property
     def force(self) -> np.ndarray:
@@ -77,7 +72,7 @@ def load_emps(kind="estimation"):
     Returns
     -------
     EMPSData
-        ``t``, ``qm``, ``qg``, ``vir`` (each shape (24841,)), the scalars
+        An :class:`adaptid.IDData` (output ``qm``, input ``vir``) with ``t``, ``qm``, ``qg``, ``vir`` (each shape (24841,)), the scalars
         ``gtau``, ``kp``, ``kv``, ``Ts = 1e-3`` and, for the validation set,
         ``pulses_N``.
 

@@ -51,5 +51,7 @@ def fit_percent(y, y_hat):
     dev = np.linalg.norm(y - y.mean(axis=0), axis=0)
     if np.any(dev == 0.0):
         raise param_error("y", "not constant", "<a constant output>")
-    fit = 100.0 * (1.0 - np.linalg.norm(y - y_hat, axis=0) / dev)
+    from .._teststats import fit_percent as _fit   # the one formula, shared with adaptid.models
+
+    fit = _fit(y, y_hat)
     return float(fit) if y.ndim == 1 else fit

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._teststats import cross_correlation, ljung_box
 from .._validation import as_float_array, check_int, check_scalar, param_error
 
 __all__ = [
@@ -174,23 +175,15 @@ def autocorrelation_test(e, max_lag=25, alpha=0.05, *, ddof=0):
     >>> autocorrelation_test(e).white
     True
     """
-    ec, ss = _centred(e, "e")
+    ec, _ = _centred(e, "e")
     N = ec.size
     max_lag, alpha, ddof = _check_common(N, max_lag, alpha, ddof, lambda M: M)
-    from scipy.stats import chi2, norm
-
-    acf = np.empty(max_lag + 1)
-    for tau in range(max_lag + 1):  # a loop over lags, each a vector product
-        acf[tau] = (ec[tau:] @ ec[:N - tau]) / ss
-    taus = np.arange(1, max_lag + 1)
-    q = float(N * (N + 2) * np.sum(acf[1:] ** 2 / (N - taus)))
-    dof = max_lag - ddof
-    band = float(norm.ppf(1.0 - alpha / 2.0) / np.sqrt(N))
-    outside = np.abs(acf) > band
+    r = ljung_box(ec, max_lag, alpha, ddof)   # the one formula, shared with adaptid.models
+    outside = np.abs(r["acf"]) > r["band"]
     outside[0] = False
-    return AutocorrelationResult(lags=np.arange(max_lag + 1), acf=acf, band=band,
-                                 outside=outside, q_stat=q, dof=dof,
-                                 p_value=float(chi2.sf(q, dof)), alpha=alpha)
+    return AutocorrelationResult(lags=np.arange(max_lag + 1), acf=r["acf"], band=r["band"],
+                                 outside=outside, q_stat=r["q_stat"], dof=r["dof"],
+                                 p_value=r["p_value"], alpha=alpha)
 
 
 def cross_correlation_test(u, e, max_lag=25, alpha=0.05, *, ddof=0):
@@ -255,25 +248,13 @@ def cross_correlation_test(u, e, max_lag=25, alpha=0.05, *, ddof=0):
     >>> int(res.lags[np.argmax(np.abs(res.ccf))]), res.independent
     (3, False)
     """
-    uc, ssu = _centred(u, "u")
-    ec, sse = _centred(e, "e")
+    uc, _ = _centred(u, "u")
+    ec, _ = _centred(e, "e")
     N = ec.size
     if uc.size != N:
         raise param_error("u", f"of the same length as e ({N})", f"<length {uc.size}>")
     max_lag, alpha, ddof = _check_common(N, max_lag, alpha, ddof, lambda M: M + 1)
-    from scipy.stats import chi2, norm
-
-    denom = np.sqrt(ssu * sse)
-    lags = np.arange(-max_lag, max_lag + 1)
-    ccf = np.empty(lags.size)
-    for i, tau in enumerate(lags):  # a loop over lags, each a vector product
-        if tau >= 0:
-            ccf[i] = (ec[tau:] @ uc[:N - tau]) / denom
-        else:
-            ccf[i] = (ec[:N + tau] @ uc[-tau:]) / denom
-    q = float(N * np.sum(ccf[max_lag:] ** 2))
-    dof = max_lag + 1 - ddof
-    band = float(norm.ppf(1.0 - alpha / 2.0) / np.sqrt(N))
-    return CrossCorrelationResult(lags=lags, ccf=ccf, band=band,
-                                  outside=np.abs(ccf) > band, q_stat=q, dof=dof,
-                                  p_value=float(chi2.sf(q, dof)), alpha=alpha)
+    r = cross_correlation(uc, ec, max_lag, alpha, ddof)   # shared with adaptid.models
+    return CrossCorrelationResult(lags=r["lags"], ccf=r["ccf"], band=r["band"],
+                                  outside=np.abs(r["ccf"]) > r["band"], q_stat=r["q_stat"],
+                                  dof=r["dof"], p_value=r["p_value"], alpha=alpha)

@@ -31,6 +31,15 @@ class Trajectory:
         RLS with a forgetting strategy (:mod:`adaptid.forgetting`) or
         ``P_max``: the factor λₖ actually applied at each sample (NaN where
         skipped). None for constant or given per-sample λ.
+    names : tuple of str, or None
+        Parameter names, set by the producer that knows them (the model
+        objects' ``fit_recursive``); :meth:`to_pandas` and :meth:`plot` use them.
+    time : ndarray, shape (N,), or None
+        Time stamp of every row (numbers or ``datetime64``), set when the
+        data came as an :class:`adaptid.IDData`; the index of :meth:`to_pandas`.
+    stderr : ndarray, shape (N, n), or None
+        Standard error of every estimate when the producer kept the P
+        history; :meth:`plot` then draws ±2σ bands.
     """
 
     theta: np.ndarray
@@ -39,6 +48,9 @@ class Trajectory:
     n_rebuilds: int = 0
     forgetting: np.ndarray | None = None
     meta: dict = field(default_factory=dict, repr=False)
+    names: tuple | None = None
+    time: np.ndarray | None = field(default=None, repr=False)
+    stderr: np.ndarray | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return self.error.shape[-1] if self.error.ndim == 1 else self.skipped.shape[-1]
@@ -55,8 +67,11 @@ class Trajectory:
     def to_pandas(self, names=None, index=None):
         """Return the single-stream, single-output trajectory as a DataFrame.
 
-        Columns: one per parameter (``names`` or ``theta0..``), ``error`` and
-        ``skipped``. Requires pandas (``pip install adaptid[pandas]``).
+        Columns: one per parameter (``names``, else the trajectory's own
+        ``names``, else ``theta0..``), ``error`` and ``skipped``. Index:
+        ``index``, else the trajectory's ``time`` (named "time"), else the
+        sample positions ``meta["index"]`` (named "k") when known. Requires
+        pandas (``pip install adaptid[pandas]``).
         """
         try:
             import pandas as pd
@@ -65,10 +80,36 @@ class Trajectory:
         if self.theta.ndim != 2:
             raise ValueError("to_pandas is for a single-stream, single-output trajectory")
         n = self.theta.shape[1]
-        names = list(names) if names is not None else [f"theta{i}" for i in range(n)]
-        if len(names) != n:
-            raise ValueError(f"names must have {n} entries, got {len(names)}")
+        names = self._param_names(names)
+        if index is None and self.time is not None:
+            index = pd.Index(self.time, name="time")
+        elif index is None and self.meta.get("index") is not None:
+            index = pd.Index(self.meta["index"], name="k")
         df = pd.DataFrame(self.theta, columns=names, index=index)
         df["error"] = self.error
         df["skipped"] = self.skipped
         return df
+
+    def _param_names(self, names=None):
+        n = self.theta.shape[-1] if self.theta.ndim == 2 else self.theta.shape[1]
+        if names is None:
+            names = self.names if self.names is not None else [f"theta{i}" for i in range(n)]
+        names = [str(x) for x in names]
+        if len(names) != n:
+            raise ValueError(f"names must have {n} entries, got {len(names)}")
+        return names
+
+    def plot(self, names=None, *, fig=None, true_theta=None):
+        """Draw the parameter tracks (:func:`adaptid.plot.tracks`); returns the figure.
+
+        One panel per parameter against ``time`` (or the sample position),
+        with ±2σ bands when ``stderr`` is known. Requires matplotlib
+        (``pip install 'adaptid[plot]'``).
+        """
+        if self.theta.ndim != 2:
+            raise ValueError("plot is for a single-stream, single-output trajectory")
+        from .plot import tracks  # the figure lives in the plotting layer
+
+        x = self.time if self.time is not None else self.meta.get("index")
+        return tracks(self.theta, x=x, names=self._param_names(names), stderr=self.stderr,
+                      fig=fig, true_theta=true_theta)

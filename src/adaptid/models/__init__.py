@@ -24,6 +24,11 @@ aic / fpe / cov / to_control):
   Hannan–Rissanen start (recursive: pseudo-linear regression);
 * :class:`AR`, :class:`ARMA` — time series (least squares; Hannan–Rissanen
   and prediction errors; recursive: RLS / RELS).
+
+The workflow on a measured record (:class:`IDData`, MATLAB's ``iddata``):
+:func:`select_order` (``arxstruc``/``selstruc``), :func:`compare` (fit %),
+:func:`resid` (residual tests), ``model.summary()`` /
+:func:`model_summary`, :func:`recursive_summary`.
 """
 
 from __future__ import annotations
@@ -40,10 +45,13 @@ from ._builders import (
     trend_regressors,
 )
 from ._bj import BJ
+from ._iddata import IDData
 from ._oe import OE
 from ._polymodel import NotFittedError
 from ._regression import Regression
+from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
+from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
 _LAZY = {
@@ -52,6 +60,7 @@ _LAZY = {
 }
 
 __all__ = [
+    "IDData",
     "Regression",
     "arx_regressors",
     "fir_regressors",
@@ -67,6 +76,14 @@ __all__ = [
     "ARMA",
     "BJ",
     "NotFittedError",
+    "compare",
+    "resid",
+    "select_order",
+    "CompareResult",
+    "ResidResult",
+    "OrderSelection",
+    "model_summary",
+    "recursive_summary",
 ]
 
 

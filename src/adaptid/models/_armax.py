@@ -33,7 +33,8 @@ class ARMAX(_PseudoLinearModel):
       squares on the extended regressor, one Gauss–Newton correction.
 
     RELS is consistent when :math:`1/C(e^{i\omega}) - 1/2` is strictly
-    positive real; Hannan–Rissanen for a long enough ARX order. With ``refine=True`` the estimate is then refined by
+    positive real; Hannan–Rissanen for a long enough ARX order. :meth:`fit`
+    then (``refine=True``, the default) refines the estimate by
     minimising the prediction-error criterion :math:`\sum_k\varepsilon_k^2(\theta)`
     (:func:`scipy.optimize.least_squares` with the analytic gradient
     :math:`\psi_k = \varphi_k/C(q)`), which is the maximum-likelihood
@@ -96,8 +97,8 @@ class ARMAX(_PseudoLinearModel):
         theta[nab:] = stabilize(np.concatenate([[1.0], theta[nab:]]))[1:]
         return theta
 
-    def fit(self, y, u, *, refine=False, arx_order=None):
-        r"""Batch fit: the Hannan–Rissanen three-stage least squares.
+    def fit(self, y, u=None, *, refine=True, arx_order=None):
+        r"""Batch fit: the Hannan–Rissanen three-stage least squares, then prediction-error refinement.
 
         1. a long ARX model, fitted by least squares, gives residuals
            :math:`\hat e_k` that approximate the innovations;
@@ -112,10 +113,12 @@ class ARMAX(_PseudoLinearModel):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
-        u : array_like, shape (N,) or (N, m)
+        y : array_like, shape (N,); pandas Series; or IDData (``u`` then omitted)
+        u : array_like, shape (N,) or (N, m); pandas
         refine : bool
-            Refine by minimising the prediction-error criterion (default False).
+            Refine by minimising the prediction-error criterion from the
+            Hannan–Rissanen estimate (default True, as MATLAB's ``armax``;
+            False gives the three-stage estimate alone).
         arx_order : int, optional
             Order of the long ARX model for the initial residuals (default
             ``max(20, 3 (na + nc))``, capped by the record length).

@@ -96,13 +96,15 @@ class ARX(_PolyModel):
         reg, Phi = self._fixed_regression(y, U, self._single)
         return reg, Phi
 
-    def fit(self, y, u):
+    def fit(self, y, u=None):
         r"""Least-squares fit on the whole record (QR, :func:`adaptid.lstsq`).
 
         Parameters
         ----------
-        y : array_like, shape (N,)
-        u : array_like, shape (N,) or (N, m)
+        y : array_like, shape (N,); pandas Series; or IDData
+            Output, or the whole record (``u`` then omitted; its names go
+            into :meth:`summary` and its ``dt`` into the model).
+        u : array_like, shape (N,) or (N, m); pandas
 
         Returns
         -------
@@ -121,7 +123,7 @@ class ARX(_PolyModel):
         self.result = res
         return self
 
-    def fit_recursive(self, y, u, estimator=None):
+    def fit_recursive(self, y, u=None, estimator=None):
         r"""Fit with a recursive estimator of the core, in one compiled pass.
 
         The ARX regressors do not depend on the estimates, so Φ is built
@@ -173,4 +175,5 @@ class ARX(_PolyModel):
 
         meta = dict(traj.meta)
         meta.update(index=reg.index, names=self.names)
-        return dataclasses.replace(traj, meta=meta)
+        return dataclasses.replace(traj, meta=meta, names=self.names,
+                                   time=self._time_of(reg.index))

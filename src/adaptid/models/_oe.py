@@ -43,7 +43,8 @@ class OE(_PseudoLinearModel):
       Steiglitz–McBride step is fitted to y minus the other inputs' current
       simulated outputs, input after input, until θ settles (backfitting).
 
-    ``refine=True`` then minimises :math:`\sum_k(y_k - \sum_i w^{(i)}_k(\theta))^2`
+    :meth:`fit` then (``refine=True``, the default) minimises
+    :math:`\sum_k(y_k - \sum_i w^{(i)}_k(\theta))^2`
     with :func:`scipy.optimize.least_squares` (analytic gradient:
     :math:`\partial w^{(i)}/\partial b^{(i)}_j = u^{(i)}_{k-n_{k,i}-j}/F_i(q)`,
     :math:`\partial w^{(i)}/\partial f^{(i)}_j = -w^{(i)}_{k-j}/F_i(q)`).
@@ -124,8 +125,8 @@ class OE(_PseudoLinearModel):
             psi_f.append(self._filt(F, -lagmat(w, f.size)) if f.size else np.zeros((w.size, 0)))
         return Y - w_sum, np.hstack(psi_b + psi_f)
 
-    def fit(self, y, u, *, refine=False, n_iter=30, tol=1e-8):
-        r"""Batch fit: Steiglitz–McBride iterations, optionally refined.
+    def fit(self, y, u=None, *, refine=True, n_iter=30, tol=1e-8):
+        r"""Batch fit: Steiglitz–McBride iterations, then prediction-error refinement.
 
         Iteration (one input): filter y and u by :math:`1/\hat F`, fit
         :math:`\hat F(q)y^F_k = \hat B(q)u^F_k + e_k` by least squares, repeat
@@ -136,10 +137,12 @@ class OE(_PseudoLinearModel):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
-        u : array_like, shape (N,) or (N, m)
+        y : array_like, shape (N,); pandas Series; or IDData (``u`` then omitted)
+        u : array_like, shape (N,) or (N, m); pandas
         refine : bool
-            Refine by minimising :math:`\sum(y - w(\theta))^2` (default False).
+            Refine by minimising :math:`\sum(y - w(\theta))^2` from the
+            Steiglitz–McBride estimate (default True, as MATLAB's ``oe``;
+            False gives the Steiglitz–McBride estimate alone).
         n_iter : int
             Largest number of iterations (default 30).
         tol : float

@@ -85,7 +85,7 @@ class _PseudoLinearModel(_PolyModel):
     def _stable(self, theta):
         return theta
 
-    def fit_recursive(self, y, u, estimator=None, *, refine=False):
+    def fit_recursive(self, y, u=None, estimator=None, *, refine=False):
         r"""Recursive pseudo-linear regression in one compiled pass.
 
         The regressor of sample k contains signals built from the estimates
@@ -115,7 +115,7 @@ class _PseudoLinearModel(_PolyModel):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
+        y : array_like, shape (N,); or IDData (``u`` then omitted)
         u : array_like, shape (N,) or (N, m)
         estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
             Read, not modified: its options and current θ, P are the

@@ -54,6 +54,8 @@ class _PolyModel:
     """Common base; see :class:`ARX`, :class:`ARMAX`, :class:`OE`."""
 
     _structure = "poly"
+    #: False for time-series models (AR, ARMA): ``u`` may then be None (m = 0 inputs)
+    _needs_input = True
 
     def _init_orders(self, na, nb, nc, nf, nk, dt):
         self.na = check_int(na, "na", low=0)
@@ -80,11 +82,29 @@ class _PolyModel:
         self._nk = _per_input(self._nk_spec, "nk", m, low=0)
 
     def _data(self, y, u, *, fitting=False):
-        """Validate (y, u); at fit time fix the number of inputs."""
+        """Validate (y, u) or an IDData; at fit time fix the number of inputs and the names."""
+        from ._iddata import as_signals
+
+        y, u, data = as_signals(y, u)
+        if u is None and self._needs_input:
+            raise param_error("u", "an input signal (or an IDData with inputs)", None,
+                              exc=TypeError)
         y = as_float_array(y, "y", ndim=1)
-        U, single = _as_inputs(u, y.shape[0])
+        if u is None:
+            U, single = np.zeros((y.shape[0], 0)), True
+        else:
+            U, single = _as_inputs(u, y.shape[0])
         if fitting:
             self._set_inputs(U.shape[1], single)
+            if data is not None:
+                self.y_name, self.u_names = data.y_names[0], data.u_names
+                self.dt = data.dt
+            else:
+                self.y_name = "y"
+                self.u_names = (() if U.shape[1] == 0 else ("u",) if single
+                                else tuple(f"u{i + 1}" for i in range(U.shape[1])))
+            self._fit_signals = (y, U)
+            self._fit_data = data
         else:
             self._check_fitted()
             if U.shape[1] != self._m:
@@ -94,7 +114,11 @@ class _PolyModel:
 
     def _inputs(self, u):
         self._check_fitted()
-        arr = as_float_array(u, "u", ndim=(1, 2))
+        from ._iddata import IDData
+
+        if isinstance(u, IDData):
+            u = u.u
+        arr = as_float_array(getattr(u, "to_numpy", lambda: u)(), "u", ndim=(1, 2))
         U = arr.reshape(-1, 1) if arr.ndim == 1 else arr
         if U.shape[1] != self._m:
             raise param_error("u", f"with {self._m} input column(s) as at fit time",
@@ -217,7 +241,7 @@ class _PolyModel:
         imp[0] = 1.0
         return signal.lfilter(C, A, imp)
 
-    def predict(self, y, u, k=1):
+    def predict(self, y, u=None, k=1):
         r"""k-step-ahead prediction :math:`\hat y_{t|t-k}` of the output.
 
         With :math:`G_i = B_i/(A F_i)`, the noise model :math:`H = C/A` and
@@ -235,7 +259,8 @@ class _PolyModel:
 
         Parameters
         ----------
-        y : array_like, shape (N,)
+        y : array_like, shape (N,); or IDData
+            Output (or the whole record, ``u`` then omitted).
         u : array_like, shape (N,) or (N, m)
         k : int
             Prediction horizon, ``>= 1`` (default 1).
@@ -264,7 +289,7 @@ class _PolyModel:
 
         Parameters
         ----------
-        u : array_like, shape (N,) or (N, m)
+        u : array_like, shape (N,) or (N, m); or IDData (its inputs)
         noise : array_like, shape (N,), optional
 
         Returns
@@ -281,18 +306,43 @@ class _PolyModel:
             out += signal.lfilter(C, A, e)
         return out
 
-    def fit_percent(self, y, u, *, k=None):
+    def fit_percent(self, y, u=None, *, k=None):
         r"""Normalised fit (NRMSE, percent) of the simulation or the k-step prediction.
 
         ``k=None`` (default) compares ``y`` with :meth:`simulate`, an
         integer with :meth:`predict` at that horizon;
         see :func:`adaptid.diagnostics.fit_percent`.
         """
-        from ..diagnostics import fit_percent
+        from .._teststats import fit_percent
 
         y, U = self._data(y, u)
         y_hat = self.simulate(U) if k is None else self.predict(y, U, k=k)
+        if not np.ptp(y) > 0:
+            raise param_error("y", "not constant (the fit is relative to its variation)",
+                              "<a constant signal>")
         return fit_percent(y, y_hat)
+
+    # ------------------------------------------------------------ summary
+    def summary(self, *, alpha=0.05, max_lag=25):
+        r"""The fit's summary table (parameters, information criteria, fit %, residual tests).
+
+        Computed on the estimation data by :func:`adaptid.models.model_summary`
+        (which see for every number's definition).
+
+        Parameters
+        ----------
+        alpha : float
+            Level of the confidence limits and of the residual tests (default 0.05).
+        max_lag : int
+            Largest lag of the Ljung–Box and cross-correlation tests (default 25).
+
+        Returns
+        -------
+        adaptid._summary.Summary
+        """
+        from ._summary import model_summary
+
+        return model_summary(self, alpha=alpha, max_lag=max_lag)
 
     # ------------------------------------------------------------ control
     def to_control(self, form="tf"):
@@ -311,7 +361,8 @@ class _PolyModel:
         Returns
         -------
         control.TransferFunction or control.StateSpace
-            With ``dt`` equal to the model's sample time.
+            With ``dt`` equal to the model's sample time and the input and
+            output names of the data it was fitted to.
 
         Raises
         ------
@@ -331,10 +382,12 @@ class _PolyModel:
             L = max(den.size, Bs[i].size)
             nums.append(_pad_to(Bs[i], L))
             dens.append(_pad_to(den, L))
+        io = {"inputs": list(getattr(self, "u_names", ())) or None,
+              "outputs": [getattr(self, "y_name", "y")]}
         if form == "tf":
             if self._m == 1:
-                return control.tf(nums[0], dens[0], self.dt)
-            return control.tf([nums], [dens], self.dt)
+                return control.tf(nums[0], dens[0], self.dt, **io)
+            return control.tf([nums], [dens], self.dt, **io)
         blocks = [signal.tf2ss(np.trim_zeros(nb_, "f") if np.any(nb_) else np.zeros(1), db_)
                   for nb_, db_ in zip(nums, dens)]
         from scipy.linalg import block_diag
@@ -343,13 +396,18 @@ class _PolyModel:
         Bss = block_diag(*[b[1] for b in blocks])
         Css = np.hstack([b[2] for b in blocks])
         Dss = np.hstack([b[3] for b in blocks])
-        return control.ss(Ass, Bss, Css, Dss, self.dt)
+        return control.ss(Ass, Bss, Css, Dss, self.dt, **io)
 
     # -------------------------------------------------------- recursive util
-    @staticmethod
-    def _trajectory(theta, error, index, names, forgetting=None):
+    def _time_of(self, index):
+        """Time stamps of the rows ``index`` when the fit's data was an IDData."""
+        data = getattr(self, "_fit_data", None)
+        return None if data is None else np.asarray(data.t)[index]
+
+    def _trajectory(self, theta, error, index, names, forgetting=None):
         return Trajectory(theta=theta, error=error, skipped=np.zeros(error.shape[0], dtype=bool),
-                          forgetting=forgetting, meta={"index": index, "names": names})
+                          forgetting=forgetting, meta={"index": index, "names": names},
+                          names=tuple(names), time=self._time_of(index))
 
     def __repr__(self):
         orders = ", ".join(f"{k}={getattr(self, k)}" for k in self._order_names)

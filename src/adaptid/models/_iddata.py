@@ -1,0 +1,318 @@
+r"""The measured record of an identification experiment: outputs, inputs, time, names."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import as_float_array, check_choice, check_scalar, param_error
+
+__all__ = ["IDData", "as_signals"]
+
+
+def _names_of(obj):
+    """Column names of a pandas Series / DataFrame (None for arrays)."""
+    if hasattr(obj, "columns"):
+        return tuple(str(c) for c in obj.columns)
+    name = getattr(obj, "name", None)
+    if hasattr(obj, "to_numpy") and name is not None:
+        return (str(name),)
+    return None
+
+
+def _index_of(obj):
+    """A pandas object's index as time, unless it is the default 0..N-1 range."""
+    idx = getattr(obj, "index", None)
+    if idx is None or not hasattr(obj, "to_numpy"):
+        return None
+    if type(idx).__name__ == "RangeIndex" and idx.start == 0 and idx.step == 1:
+        return None
+    return idx.to_numpy()
+
+
+def _default_names(prefix, count, given, what):
+    if given is None:
+        return (prefix,) if count == 1 else tuple(f"{prefix}{i + 1}" for i in range(count))
+    names = (given,) if isinstance(given, str) else tuple(str(g) for g in given)
+    if len(names) != count:
+        raise param_error(what, f"{count} name(s)", f"<{len(names)} names>")
+    return names
+
+
+class IDData:
+    r"""The measured record of an identification experiment (MATLAB's ``iddata``).
+
+    Parameters
+    ----------
+    y : array_like, shape (N,) or (N, p); or pandas Series / DataFrame
+        Outputs. A pandas object gives the names (and, unless it is the
+        default range, its index gives ``time``).
+    u : array_like, shape (N,) or (N, m); pandas; or None
+        Inputs (None: a time series without input).
+    dt : float
+        Sample time, > 0 (default 1.0).
+    time : array_like, shape (N,), optional
+        Time stamps (numbers or ``datetime64``); default ``dt · k``.
+    y_names, u_names : str or sequence of str, optional
+        Signal names (default ``"y"``, ``"u"`` for one signal, ``"y1"``,
+        ``"y2"``, … for several).
+
+    Attributes
+    ----------
+    y : ndarray, shape (N,) or (N, p)
+        Outputs (1-D for one output).
+    u : ndarray, shape (N,) or (N, m), or None
+        Inputs (1-D for one input).
+    outputs, inputs : ndarray, shape (N, p), (N, m)
+        Always 2-D (m may be 0).
+    dt : float
+    time : ndarray, shape (N,), or None
+        The time stamps given (None if not given).
+    t : ndarray, shape (N,)
+        The time axis: ``time`` or ``dt · (k0 + k)``.
+    y_names, u_names : tuple of str
+    y_trend, u_trend : ndarray, shape (N, p), (N, m)
+        What :meth:`detrend` removed (zeros for raw data): the measured
+        signal is ``outputs + y_trend``; :meth:`retrend` adds it back to a
+        model output.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from adaptid import IDData
+    >>> d = IDData(np.arange(10.0), np.ones(10), dt=0.5, y_names="temp", u_names="power")
+    >>> est, val = d.split(0.6)
+    >>> len(est), len(val), float(val.t[0])
+    (6, 4, 3.0)
+    >>> dd = d.detrend("linear")
+    >>> bool(np.allclose(dd.y, 0.0)) and bool(np.allclose(dd.retrend(dd.y), d.y))
+    True
+    """
+
+    def __init__(self, y, u=None, *, dt=1.0, time=None, y_names=None, u_names=None):
+        y_names = y_names if y_names is not None else _names_of(y)
+        u_names = u_names if u_names is not None or u is None else _names_of(u)
+        if time is None:
+            time = _index_of(y)
+        Y = as_float_array(getattr(y, "to_numpy", lambda: y)(), "y", ndim=(1, 2))
+        Y = Y.reshape(Y.shape[0], -1)
+        N = Y.shape[0]
+        if u is None:
+            U = np.zeros((N, 0))
+        else:
+            U = as_float_array(getattr(u, "to_numpy", lambda: u)(), "u", ndim=(1, 2))
+            U = U.reshape(U.shape[0], -1)
+            if U.shape[0] != N:
+                raise param_error("u", f"with N={N} rows (as y)", f"<{U.shape[0]} rows>")
+        if N < 1 or Y.shape[1] < 1:
+            raise param_error("y", "at least one sample of at least one output", f"<shape {Y.shape}>")
+        self.dt = check_scalar(dt, "dt", low=0.0, low_open=True)
+        if time is not None:
+            time = np.asarray(time)
+            if time.shape != (N,):
+                raise param_error("time", f"of shape ({N},)", f"<shape {time.shape}>")
+            if time.dtype.kind not in "iufM":
+                raise param_error("time", "numbers or datetime64 values", f"<dtype {time.dtype}>",
+                                  exc=TypeError)
+        self.time = time
+        self._k0 = 0
+        self.outputs = np.ascontiguousarray(Y)
+        self.inputs = np.ascontiguousarray(U)
+        self.y_names = _default_names("y", Y.shape[1], y_names, "y_names")
+        self.u_names = _default_names("u", U.shape[1], u_names, "u_names")
+        self.y_trend = np.zeros_like(self.outputs)
+        self.u_trend = np.zeros_like(self.inputs)
+
+    # ------------------------------------------------------------ access
+    @property
+    def y(self):
+        """Outputs, shape (N,) for one output, else (N, p)."""
+        return self.outputs[:, 0] if self.outputs.shape[1] == 1 else self.outputs
+
+    @property
+    def u(self):
+        """Inputs, shape (N,) for one input, (N, m) for several, None without inputs."""
+        m = self.inputs.shape[1]
+        if m == 0:
+            return None
+        return self.inputs[:, 0] if m == 1 else self.inputs
+
+    @property
+    def n_outputs(self) -> int:
+        """Number of outputs p."""
+        return self.outputs.shape[1]
+
+    @property
+    def n_inputs(self) -> int:
+        """Number of inputs m (0 for a time series)."""
+        return self.inputs.shape[1]
+
+    @property
+    def t(self) -> np.ndarray:
+        """The time axis: the stamps given, else ``dt · k`` (k counted from the original start)."""
+        if self.time is not None:
+            return self.time
+        return self.dt * (self._k0 + np.arange(len(self)))
+
+    def __len__(self) -> int:
+        return self.outputs.shape[0]
+
+    def _copy_with(self, rows=None, *, outputs=None, inputs=None, y_trend=None, u_trend=None,
+                   dt=None, k0=None):
+        new = object.__new__(IDData)
+        sel = slice(None) if rows is None else rows
+        new.outputs = np.ascontiguousarray(self.outputs[sel] if outputs is None else outputs)
+        new.inputs = np.ascontiguousarray(self.inputs[sel] if inputs is None else inputs)
+        new.y_trend = self.y_trend[sel] if y_trend is None else y_trend
+        new.u_trend = self.u_trend[sel] if u_trend is None else u_trend
+        new.time = None if self.time is None else self.time[sel]
+        new.dt = self.dt if dt is None else dt
+        new._k0 = self._k0 if k0 is None else k0
+        new.y_names, new.u_names = self.y_names, self.u_names
+        return new
+
+    def __getitem__(self, key):
+        """Samples by slice, e.g. ``data[:300]`` (a step multiplies ``dt``)."""
+        if not isinstance(key, slice):
+            raise param_error("key", "a slice of samples (e.g. data[100:400])", key, exc=TypeError)
+        start, stop, step = key.indices(len(self))
+        if step < 1:
+            raise param_error("slice step", "a positive integer", step)
+        if len(range(start, stop, step)) == 0:
+            raise param_error("key", "a slice selecting at least one sample", key)
+        sel = slice(start, stop, step)
+        if step == 1:
+            return self._copy_with(sel, k0=self._k0 + start)
+        new = self._copy_with(sel, dt=self.dt * step)
+        new.time = self.t[sel]          # keep the original time stamps
+        return new
+
+    def split(self, fraction):
+        r"""First ``round(fraction · N)`` samples for estimation, the rest for validation.
+
+        Parameters
+        ----------
+        fraction : float
+            In (0, 1); both parts must keep at least one sample.
+
+        Returns
+        -------
+        (IDData, IDData)
+        """
+        fraction = check_scalar(fraction, "fraction", low=0.0, high=1.0, low_open=True,
+                                high_open=True)
+        n1 = int(round(fraction * len(self)))
+        if not 1 <= n1 < len(self):
+            raise param_error("fraction", f"leaving samples in both parts of N={len(self)}",
+                              fraction)
+        return self[:n1], self[n1:]
+
+    # ----------------------------------------------------------- trends
+    def detrend(self, kind="constant"):
+        r"""Remove each signal's mean or least-squares line; keep what was removed.
+
+        ``"constant"`` removes the mean, ``"linear"`` the straight line
+        fitted by least squares over the samples (as
+        :func:`scipy.signal.detrend` and MATLAB's ``detrend``). The removed
+        parts accumulate in ``y_trend`` / ``u_trend`` so that
+        :meth:`retrend` can add the output's back to a model output.
+
+        Parameters
+        ----------
+        kind : {"constant", "linear"}
+
+        Returns
+        -------
+        IDData
+        """
+        kind = check_choice(kind, "kind", ("constant", "linear"))
+        N = len(self)
+        X = np.ones((N, 1))
+        if kind == "linear":
+            X = np.column_stack([X, np.arange(N) / max(N - 1, 1)])
+
+        def fitted(S):
+            if S.shape[1] == 0:
+                return np.zeros_like(S)
+            coef = np.linalg.lstsq(X, S, rcond=None)[0]   # QR/SVD, 1 or 2 columns
+            return X @ coef
+
+        ty, tu = fitted(self.outputs), fitted(self.inputs)
+        return self._copy_with(outputs=self.outputs - ty, inputs=self.inputs - tu,
+                               y_trend=self.y_trend + ty, u_trend=self.u_trend + tu)
+
+    def retrend(self, y_model):
+        """Add the removed output trend back to a model output over these samples.
+
+        Parameters
+        ----------
+        y_model : array_like, shape (N,) or (N, p)
+
+        Returns
+        -------
+        ndarray, shape like ``y_model``
+        """
+        arr = as_float_array(y_model, "y_model", ndim=(1, 2))
+        if arr.shape[0] != len(self):
+            raise param_error("y_model", f"of length N={len(self)}", f"<shape {arr.shape}>")
+        tr = self.y_trend[:, 0] if arr.ndim == 1 else self.y_trend
+        return arr + tr
+
+    # ----------------------------------------------------------- output
+    def to_frame(self):
+        """The record as a pandas DataFrame: outputs then inputs, indexed by time."""
+        try:
+            import pandas as pd
+        except ImportError as err:  # pragma: no cover - depends on the extra
+            raise ImportError("to_frame needs pandas: pip install 'adaptid[pandas]'") from err
+        cols = {n: self.outputs[:, i] for i, n in enumerate(self.y_names)}
+        cols.update({n: self.inputs[:, i] for i, n in enumerate(self.u_names)})
+        return pd.DataFrame(cols, index=pd.Index(self.t, name="time"))
+
+    def plot(self, fig=None):
+        """One panel per signal (outputs, then inputs as stairs) against time; returns the figure.
+
+        Requires matplotlib (``pip install 'adaptid[plot]'``).
+        """
+        try:
+            import matplotlib.pyplot as plt
+        except ImportError as err:  # pragma: no cover - depends on the extra
+            raise ImportError("plot needs matplotlib: pip install 'adaptid[plot]'") from err
+        n = self.n_outputs + self.n_inputs
+        if fig is None:
+            fig = plt.figure(figsize=(7, 1.8 * n + 0.6))
+        axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+        t = self.t
+        for i, name in enumerate(self.y_names):
+            axes[i].plot(t, self.outputs[:, i], lw=0.9)
+            axes[i].set_ylabel(name)
+        for j, name in enumerate(self.u_names):
+            ax = axes[self.n_outputs + j]
+            ax.step(t, self.inputs[:, j], where="post", lw=0.9)
+            ax.set_ylabel(name)
+        axes[-1].set_xlabel("time" if self.time is not None else "time (s)")
+        return fig
+
+    def __repr__(self) -> str:
+        trend = "" if not (self.y_trend.any() or self.u_trend.any()) else ", detrended"
+        return (f"IDData(N={len(self)}, outputs={list(self.y_names)}, inputs={list(self.u_names)}, "
+                f"dt={self.dt:g}{trend})")
+
+
+def as_signals(y, u, *, where="y"):
+    """(y (N,), U-like or None, IDData or None) from ``fit(data)`` or ``fit(y, u)``.
+
+    An :class:`IDData` (or anything with ``outputs``/``inputs``) must come
+    alone and have one output; pandas objects become arrays.
+    """
+    if isinstance(y, IDData):
+        if u is not None:
+            raise param_error("u", "None when the first argument is an IDData", "<an array>",
+                              exc=TypeError)
+        if y.n_outputs != 1:
+            raise param_error(where, "an IDData with one output", f"<{y.n_outputs} outputs>")
+        return y.y, (y.u if y.n_inputs else None), y
+    y_arr = getattr(y, "to_numpy", lambda: y)()
+    u_arr = None if u is None else getattr(u, "to_numpy", lambda: u)()
+    if _names_of(y) is not None or (u is not None and _names_of(u) is not None):
+        return y_arr, u_arr, IDData(y, u) if u is not None else IDData(y)
+    return y_arr, u_arr, None

@@ -1,0 +1,420 @@
+r"""The identification workflow on a record: compare, resid, select_order."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._teststats import cross_correlation, fit_percent, ljung_box
+from .._validation import check_choice, check_int, check_scalar, param_error
+from ._iddata import IDData
+
+__all__ = ["compare", "resid", "select_order", "CompareResult", "ResidResult", "OrderSelection"]
+
+
+def _as_iddata(data, name="data"):
+    """An IDData from an IDData, a (y, u) pair or a pandas DataFrame (first column y)."""
+    if isinstance(data, IDData):
+        return data
+    if isinstance(data, tuple) and len(data) == 2:
+        return IDData(data[0], data[1])
+    if hasattr(data, "columns") and hasattr(data, "iloc"):
+        if data.shape[1] < 2:
+            raise param_error(name, "a DataFrame with the output then the input columns",
+                              f"<{data.shape[1]} column>")
+        return IDData(data.iloc[:, 0], data.iloc[:, 1:])
+    raise param_error(name, "an IDData, a (y, u) tuple or a DataFrame (output column first)",
+                      data, exc=TypeError)
+
+
+def _single_output(data, name="data"):
+    if data.n_outputs != 1:
+        raise param_error(name, "a record with one output", f"<{data.n_outputs} outputs>")
+    if not np.ptp(data.y) > 0:
+        raise param_error(name, "a record whose output is not constant", "<a constant output>")
+
+
+# --------------------------------------------------------------------- compare
+@dataclass(frozen=True, eq=False)
+class CompareResult:
+    r"""Result of :func:`compare`.
+
+    Attributes
+    ----------
+    fit : ndarray, shape (n_models,)
+        NRMSE fit in percent, one per model.
+    names : tuple of str
+        The models' labels (``repr`` of the model unless ``names`` was given).
+    y_hat : list of ndarray, shape (N,)
+        Each model's simulated (``k=None``) or k-step predicted output.
+    y : ndarray, shape (N,)
+        The measured output.
+    time : ndarray, shape (N,)
+    k : int or None
+    y_name : str
+    """
+
+    fit: np.ndarray
+    names: tuple
+    y_hat: list
+    y: np.ndarray
+    time: np.ndarray
+    k: int | None
+    y_name: str
+    figure: object = field(default=None, repr=False)
+
+    def plot(self, *, ax=None, fig=None):
+        """The figure (:func:`adaptid.plot.compare`)."""
+        from ..plot import compare as figure  # drawing lives in the plotting layer
+
+        return figure(self, ax=ax, fig=fig)
+
+    def __repr__(self):
+        body = ", ".join(f"{n}: {f:.2f} %" for n, f in zip(self.names, self.fit))
+        what = "simulation" if self.k is None else f"{self.k}-step prediction"
+        return f"CompareResult({what}; {body})"
+
+
+def compare(data, *models, k=None, ax=None, names=None):
+    r"""Fit of models to a record: MATLAB's ``compare``.
+
+    For each model, the simulated output (``k=None``) or the k-step-ahead
+    prediction from the measured input and output, with zero initial
+    conditions, and its normalised fit
+
+    .. math::
+
+        \mathrm{fit} = 100\left(1 - \frac{\lVert y - \hat y\rVert_2}{\lVert y - \bar y\rVert_2}\right)
+
+    in percent (MATLAB's NRMSE definition; 100 is a perfect model, 0 the
+    mean of y).
+
+    Parameters
+    ----------
+    data : IDData, (y, u) tuple or DataFrame (output column first)
+        The record to compare on (usually the validation part).
+    *models : fitted models
+        Anything with ``simulate(u)`` and ``predict(y, u, k)``.
+    k : int, optional
+        Prediction horizon ≥ 1; None (default) compares simulations.
+    ax : matplotlib Axes, optional
+        If given, the figure (:func:`adaptid.plot.compare`) is drawn into
+        it; otherwise no figure is drawn (``result.plot()`` draws one).
+    names : sequence of str, optional
+        Labels of the models in the result and the legend.
+
+    Returns
+    -------
+    CompareResult
+        ``fit`` (one value per model), the outputs and ``figure`` when drawn.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import lfilter
+    >>> from adaptid import IDData
+    >>> from adaptid.models import ARX, compare
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal(500)
+    >>> y = lfilter([0, 1.0], [1, -0.8], u) + 0.05 * rng.standard_normal(500)
+    >>> est, val = IDData(y, u).split(0.5)
+    >>> res = compare(val, ARX(1, 1, 1).fit(est))
+    >>> bool(res.fit[0] > 90)
+    True
+    """
+    data = _as_iddata(data)
+    _single_output(data)
+    if not models:
+        raise param_error("models", "at least one fitted model", "<none>", exc=TypeError)
+    if k is not None:
+        k = check_int(k, "k", low=1)
+    if names is None:
+        names = tuple(repr(m).split(" [")[0] for m in models)
+    else:
+        names = tuple(str(v) for v in names)
+        if len(names) != len(models):
+            raise param_error("names", f"{len(models)} labels", f"<{len(names)} labels>")
+    y, u = data.y, data.u
+    outs = []
+    for m in models:
+        yh = m.simulate(u) if k is None else m.predict(y, u, k=k)
+        outs.append(np.asarray(yh, dtype=np.float64).reshape(-1))
+    fit = np.array([fit_percent(y, yh) for yh in outs])
+    res = CompareResult(fit=fit, names=names, y_hat=outs, y=y, time=np.asarray(data.t), k=k,
+                        y_name=data.y_names[0])
+    if ax is not None:
+        object.__setattr__(res, "figure", res.plot(ax=ax))
+    return res
+
+
+# ----------------------------------------------------------------------- resid
+@dataclass(frozen=True, eq=False)
+class ResidResult:
+    r"""Result of :func:`resid`.
+
+    Attributes
+    ----------
+    e : ndarray, shape (N - start,)
+        One-step prediction errors on the record from sample ``start`` on.
+    start : int
+        The first sample tested (the predictor's lags before it lie
+        outside the record).
+    autocorrelation : dict
+        ``acf`` (M + 1,), ``band``, ``q_stat`` (Ljung–Box), ``dof``, ``p_value``.
+    cross_correlation : list of dict
+        Per input: ``lags`` (−M … M), ``ccf``, ``band``, ``q_stat``, ``dof``, ``p_value``.
+    alpha : float
+    y_name : str
+    u_names : tuple of str
+    """
+
+    e: np.ndarray
+    start: int
+    autocorrelation: dict
+    cross_correlation: list
+    alpha: float
+    y_name: str
+    u_names: tuple
+    figure: object = field(default=None, repr=False)
+
+    @property
+    def white(self) -> bool:
+        """The Ljung–Box test does not reject whiteness at ``alpha``."""
+        return bool(self.autocorrelation["p_value"] > self.alpha)
+
+    @property
+    def independent(self) -> tuple:
+        """Per input: the cross-correlation test does not reject independence at ``alpha``."""
+        return tuple(bool(c["p_value"] > self.alpha) for c in self.cross_correlation)
+
+    @property
+    def acf_outside(self) -> np.ndarray:
+        """Lags 1 … M whose autocorrelation lies outside the band (bool, shape (M,))."""
+        ac = self.autocorrelation
+        return np.abs(ac["acf"][1:]) > ac["band"]
+
+    def plot(self, *, ax=None, fig=None):
+        """The figure (:func:`adaptid.plot.resid`)."""
+        from ..plot import resid as figure  # drawing lives in the plotting layer
+
+        return figure(self, ax=ax, fig=fig)
+
+    def __repr__(self):
+        ind = ", ".join(f"{n}: p={c['p_value']:.3g}" for n, c in zip(self.u_names, self.cross_correlation))
+        return (f"ResidResult(Ljung-Box p={self.autocorrelation['p_value']:.3g} "
+                f"(white={self.white}); cross-correlation {ind}; alpha={self.alpha})")
+
+
+def resid(data, model, *, max_lag=25, alpha=0.01, ax=None, start=None):
+    r"""Residual analysis on a record: MATLAB's ``resid``.
+
+    The one-step prediction errors :math:`\varepsilon_k = y_k - \hat y_{k|k-1}`
+    of ``model`` on ``data`` (zero initial conditions; the first ``start``
+    samples, whose predictions need samples before the record, are left
+    out), their normalised
+    autocorrelation at lags 0 … M with the Ljung–Box test, and for each
+    input the cross-correlation :math:`r_{\varepsilon u}(\tau)`, τ = −M … M,
+    with the portmanteau test over τ = 0 … M; bands
+    :math:`\pm z_{1-\alpha/2}/\sqrt N` (the formulas of
+    :func:`adaptid.diagnostics.autocorrelation_test` and
+    :func:`~adaptid.diagnostics.cross_correlation_test`; Ljung 1999, sec. 16.6).
+    MATLAB's ``resid`` draws a 99 % band, hence ``alpha=0.01``.
+
+    Parameters
+    ----------
+    data : IDData, (y, u) tuple or DataFrame (output column first)
+    model : fitted model
+        With ``predict(y, u, k)``.
+    max_lag : int
+        M, 1 ≤ M < N (default 25, as MATLAB).
+    alpha : float
+        Level of the bands and tests (default 0.01).
+    ax : sequence of 1 + m matplotlib Axes, optional
+        If given, the figure (:func:`adaptid.plot.resid`) is drawn into them.
+    start : int, optional
+        First sample tested; default the model's first fitted row
+        ``model.index[0]`` (max(na, nk + nb − 1) for ARX), 0 if the model
+        has no ``index``.
+
+    Returns
+    -------
+    ResidResult
+        The numbers, the verdicts ``white`` and ``independent``, and
+        ``figure`` when drawn.
+    """
+    data = _as_iddata(data)
+    _single_output(data)
+    alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
+    if start is None:
+        idx = getattr(model, "index", None)
+        start = int(np.asarray(idx)[0]) if idx is not None and np.size(idx) else 0
+    start = check_int(start, "start", low=0, high=len(data) - 3)
+    N = len(data) - start
+    max_lag = check_int(max_lag, "max_lag", low=1, high=N - 1)
+    y, u = data.y, data.u
+    e = (y - np.asarray(model.predict(y, u, k=1), dtype=np.float64).reshape(-1))[start:]
+    if not np.ptp(e) > 0:
+        raise param_error("model", "a model whose residuals on data are not constant",
+                          "<constant residuals>")
+    ac = ljung_box(e, max_lag, alpha)
+    U = data.inputs[start:]
+    cc = [cross_correlation(U[:, j], e, max_lag, alpha) for j in range(data.n_inputs)
+          if np.ptp(U[:, j]) > 0]
+    res = ResidResult(e=e, start=start, autocorrelation=ac, cross_correlation=cc, alpha=alpha,
+                      y_name=data.y_names[0],
+                      u_names=tuple(n for j, n in enumerate(data.u_names) if np.ptp(U[:, j]) > 0))
+    if ax is not None:
+        object.__setattr__(res, "figure", res.plot(ax=ax))
+    return res
+
+
+# ----------------------------------------------------------------- select_order
+@dataclass(frozen=True, eq=False)
+class OrderSelection:
+    r"""Result of :func:`select_order`.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame or dict of ndarray
+        One row per structure: ``na``, ``nb``, ``nk``, ``n_params``,
+        ``loss`` (V = SSR/N on the common rows), ``aic``, ``fpe`` and
+        ``fit_validation`` (simulation fit % on the validation record, NaN
+        without one); a DataFrame when pandas is installed.
+    best : tuple of int
+        (na, nb, nk) of the chosen structure.
+    criterion : str
+    """
+
+    table: object
+    best: tuple
+    criterion: str
+
+    def __repr__(self):
+        return f"OrderSelection(best (na, nb, nk)={self.best}, criterion={self.criterion!r})"
+
+    def _repr_html_(self):
+        t = self.table
+        inner = t.to_html() if hasattr(t, "to_html") else ""
+        return f"<p>best (na, nb, nk) = {self.best} by {self.criterion}</p>{inner}"
+
+
+def _orders(value, name, low):
+    vals = [value] if np.ndim(value) == 0 else list(np.ravel(value))
+    if not vals:
+        raise param_error(name, "an integer or a non-empty sequence of integers", value)
+    return sorted({check_int(v, name, low=low) for v in vals})
+
+
+def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
+    r"""ARX order search: MATLAB's ``arxstruc`` and ``selstruc``.
+
+    Every structure (na, nb, nk) of the grid ``na × nb × nk`` is fitted by
+    least squares on **one shared regressor matrix**: the columns
+    :math:`-y_{k-1}, \dots, -y_{k-\max n_a}, u_{k-\min n_k}, \dots,
+    u_{k-\max n_k-\max n_b+1}` are built once over the common rows
+    :math:`k = s, \dots, N-1`, :math:`s = \max(\max n_a, \max n_k + \max n_b - 1)`,
+    and each structure is one QR (:func:`adaptid.lstsq`) of its columns,
+    so every loss is over the same N − s samples and comparable. With
+    V = SSR/(N − s) and d = na + nb:
+
+    .. math::
+
+        \mathrm{AIC} = N\log V + 2d + N(\log 2\pi + 1),\qquad
+        \mathrm{FPE} = V\,\frac{1 + d/N}{1 - d/N}
+
+    (Ljung 1999, sec. 16.4), and with ``validation`` the simulation fit %
+    on it (zero initial conditions).
+
+    Parameters
+    ----------
+    data : IDData, (y, u) tuple or DataFrame (output column first)
+        Estimation record, one output and one input.
+    na, nb, nk : int or sequence of int
+        The grid (na ≥ 0, nb ≥ 1, nk ≥ 0).
+    criterion : {"aic", "fpe", "validation"}
+        The smallest AIC or FPE, or the largest validation fit.
+    validation : IDData, (y, u) or DataFrame, optional
+        Required by ``criterion="validation"``.
+
+    Returns
+    -------
+    OrderSelection
+        ``table`` (DataFrame when pandas is there) and ``best`` = (na, nb, nk).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import lfilter
+    >>> from adaptid.models import select_order
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal(2000)
+    >>> e = 0.05 * rng.standard_normal(2000)
+    >>> y = lfilter([0, 0, 1.0, 0.5], [1, -1.2, 0.5], u) + lfilter([1], [1, -1.2, 0.5], e)
+    >>> select_order((y, u), na=[1, 2, 3], nb=[1, 2, 3], nk=[1, 2, 3]).best
+    (2, 2, 2)
+    """
+    from .._lstsq import lstsq
+
+    data = _as_iddata(data)
+    _single_output(data)
+    if data.n_inputs != 1:
+        raise param_error("data", "a record with one input", f"<{data.n_inputs} inputs>")
+    criterion = check_choice(criterion, "criterion", ("aic", "fpe", "validation"))
+    nas, nbs, nks = _orders(na, "na", 0), _orders(nb, "nb", 1), _orders(nk, "nk", 0)
+    if criterion == "validation" and validation is None:
+        raise param_error("validation", "a record when criterion='validation'", None)
+    val = None if validation is None else _as_iddata(validation, "validation")
+    if val is not None:
+        _single_output(val, "validation")
+        if val.n_inputs != 1:
+            raise param_error("validation", "a record with one input", f"<{val.n_inputs} inputs>")
+    y, u = data.y, data.u
+    N = y.size
+    na_max, nk_min, ulag_max = max(nas), min(nks), max(nks) + max(nbs) - 1
+    s = max(na_max, ulag_max)
+    if N - s <= max(nas) + max(nbs):
+        need = s + na_max + max(nbs)
+        raise param_error("data", f"longer than the largest structure needs (> {need} samples)",
+                          f"<{N} samples>")
+    rows = np.arange(s, N)
+    # the shared regressor matrix: -y lags 1..na_max, then u lags nk_min..ulag_max
+    Y_cols = (np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max
+              else np.zeros((rows.size, 0)))
+    U_cols = np.column_stack([u[rows - j] for j in range(nk_min, ulag_max + 1)])
+    target = y[rows]
+    n_rows = rows.size
+    out = {key: [] for key in ("na", "nb", "nk", "n_params", "loss", "aic", "fpe", "fit_validation")}
+    for a, b, k in itertools.product(nas, nbs, nks):
+        cols = np.hstack([Y_cols[:, :a], U_cols[:, k - nk_min: k - nk_min + b]])
+        res = lstsq(cols, target)
+        d = a + b
+        V = float(res.residuals @ res.residuals) / n_rows
+        aic = n_rows * np.log(V) + 2 * d + n_rows * (np.log(2 * np.pi) + 1.0)
+        fpe = V * (1 + d / n_rows) / (1 - d / n_rows)
+        fv = np.nan
+        if val is not None:
+            from scipy.signal import lfilter
+
+            th = np.asarray(res.theta)
+            A = np.concatenate([[1.0], th[:a]])
+            B = np.concatenate([np.zeros(k), th[a:]])
+            fv = fit_percent(val.y, lfilter(B, A, val.u))
+        for key, v in zip(out, (a, b, k, d, V, aic, fpe, fv)):
+            out[key].append(v)
+    table = {key: np.asarray(v) for key, v in out.items()}
+    score = {"aic": table["aic"], "fpe": table["fpe"],
+             "validation": -table["fit_validation"]}[criterion]
+    if criterion == "validation" and not np.isfinite(score).any():
+        raise param_error("validation", "a record on which some structure's simulation is finite",
+                          "<no finite fit>")
+    i = int(np.nanargmin(score))
+    best = (int(table["na"][i]), int(table["nb"][i]), int(table["nk"][i]))
+    try:
+        import pandas as pd
+    except ImportError:  # pragma: no cover - pandas is optional
+        pass
+    else:
+        table = pd.DataFrame(table)
+    return OrderSelection(table=table, best=best, criterion=criterion)
