@@ -175,7 +175,7 @@ def _cases():
 
 # The kernel and the C code both fuse every a*b + c: bit for bit, except
 # ConstantTrace (see the module docstring).
-NOT_BITWISE = {"constant_trace"}
+NOT_BITWISE: set = set()
 
 
 @pytest.fixture(scope="module")
@@ -255,6 +255,23 @@ def test_pmax_cases_exercise_the_bound(exported, data, key, strategy):
         warnings.simplefilter("ignore", CovarianceWindupWarning)  # what P_max prevents
         free_theta = free.run(Phi, y).theta
     assert np.max(np.abs(free_theta - tr.theta)) > 1e-6
+
+
+@pytest.mark.parametrize("forgetting", [0.99, F.ConstantTrace(0.9, trace=18.0)])
+def test_generic_kernel_n18_bitwise(tmp_path, forgetting):
+    """n = 18 > MAX_SPECIALISED_N: Python runs the generic (not unrolled) kernel,
+    whose fused products differ in one place (see codegen._rls); still bit for bit."""
+    rng = np.random.default_rng(18)
+    Phi = rng.standard_normal((5_000, 18))
+    y = Phi @ rng.standard_normal(18) + 0.1 * rng.standard_normal(5_000)
+    est = adaptid.RLS(18, forgetting=forgetting)
+    tr = est.copy().run(Phi, y)
+    fma = _host_has_fma()
+    exe = _build(est, tmp_path, flags=(["-DEST_USE_FMA", "-mfma"] if fma else ["-ffp-contract=off"]))
+    th = _run(exe, Phi, y)[0]
+    assert _rel(th, tr.theta) <= 1e-12
+    if fma:
+        np.testing.assert_array_equal(th, tr.theta)
 
 
 def test_window_rebuild_path(tmp_path):

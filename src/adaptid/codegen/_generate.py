@@ -10,6 +10,7 @@ import numpy as np
 
 from .._validation import check_choice, param_error
 from ..forgetting import ConstantTrace, Directional, Variable, resolve
+from .. import _config
 from .._config import DOWNDATE_RTOL
 from . import _emit
 from ._rls import kalman_update, rls_update, window_update
@@ -245,7 +246,8 @@ def generate(state, name="rls", dtype="float64"):
     n = int(state["n_params"])
     init = _init(name, info, state, dtype)  # also sets info["uniform"] for the window
     if info["kind"] == "RLS":
-        helpers, update = rls_update(info["mode"], info["lam"], info.get("pmax"))
+        helpers, update = rls_update(info["mode"], info["lam"], info.get("pmax"),
+                                     unrolled=n <= _config.MAX_SPECIALISED_N)
     elif info["kind"] == "KalmanRLS":
         helpers, update = kalman_update()
     else:

@@ -163,11 +163,11 @@ _CONSTANT_TRACE = r"""
         }
         for (i = 0; i < $N; i++) {
             for (j = i; j < $N; j++) {
-                real sij = i < j ? s->D[j] * s->U[i][j] : s->D[j];
-                for (q = j + 1; q < $N; q++) {
+@SIJ@
+                for (; q < $N; q++) {
                     sij = FMA(s->U[i][q] * s->D[q], s->U[j][q], sij);
                 }
-                W[i][j] = FMA(g, sij, i == j ? TRACE_C2 : 0.0);
+@WIJ@
             }
         }
         if (!udu_factor(s, W)) {
@@ -179,8 +179,29 @@ _CONSTANT_TRACE = r"""
 """
 
 
-def rls_update(kind: str, lam: float, pmax: float | None):
-    """``kind``: "exp", "dir", "ct" or "var"; returns (helpers, source, defines)."""
+# P_ij = D_j U_ij + sum_{q > j} U_iq D_q U_jq. The kernel specialised for n
+# (loops unrolled, n <= MAX_SPECIALISED_N) has LLVM fuse the first product
+# into the first addition, D_j U_ij + (U_iq D_q U_jq) -> fma; the generic one
+# (a loop) fuses the second, as everywhere else, and does not fuse
+# g P_ij + c2 (unrolled, it does).
+_SIJ_UNROLLED = r"""                real sij;
+                q = j + 1;
+                if (i < j && q < $N) {
+                    sij = FMA(s->D[j], s->U[i][j], s->U[i][q] * s->D[q] * s->U[j][q]);
+                    q++;
+                } else {
+                    sij = i < j ? s->D[j] * s->U[i][j] : s->D[j];
+                }"""
+_SIJ_LOOP = r"""                real sij = i < j ? s->D[j] * s->U[i][j] : s->D[j];
+                q = j + 1;"""
+
+
+def rls_update(kind: str, lam: float, pmax: float | None, unrolled: bool = True):
+    """``kind``: "exp", "dir", "ct" or "var"; returns (helpers, source).
+
+    ``unrolled``: the Python estimator runs a kernel specialised for its n
+    (see :mod:`adaptid._kernels`), which fuses one product differently.
+    """
     helpers = ["FINITE", "PRIOR_ERROR", "BIERMAN", "CHECK_PIVOTS"]
     local = []
     body = _HEAD
@@ -202,7 +223,11 @@ def rls_update(kind: str, lam: float, pmax: float | None):
             helpers.append(_MAX_DIAG)
         body += _DIRECTIONAL_APPLY + _MEASUREMENT
     elif kind == "ct":
-        body += _MEASUREMENT + _CONSTANT_TRACE
+        body += _MEASUREMENT + _CONSTANT_TRACE.replace(
+            "@SIJ@", _SIJ_UNROLLED if unrolled else _SIJ_LOOP).replace(
+            "@WIJ@", "                W[i][j] = " + (
+                "FMA(g, sij, i == j ? TRACE_C2 : 0.0);" if unrolled
+                else "g * sij + (i == j ? TRACE_C2 : 0.0);"))
         helpers += [_TRACE, "UDU_FACTOR"]
     else:  # pragma: no cover - guarded by the caller
         raise ValueError(kind)
