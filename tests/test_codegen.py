@@ -275,12 +275,13 @@ def test_generic_kernel_n18_bitwise(tmp_path, forgetting):
 
 
 def test_window_rebuild_path(tmp_path):
-    """A window of M = n = 2 with a diffuse prior: removals that would lose
-    definiteness are replaced by the re-solve from the buffer, in C as in Python."""
+    """A window of M = n = 4 with a diffuse prior: removals that would lose
+    definiteness are replaced by the re-solve from the buffer, in C as in Python
+    (nan_policy="skip": the kernels compiled for the cases above)."""
     rng = np.random.default_rng(3)
-    Phi = rng.standard_normal((20_000, 2))
-    y = Phi @ [1.0, -1.0] + 0.01 * rng.standard_normal(20_000)
-    est = adaptid.SlidingWindowRLS(2, 2, P0=1e12)
+    Phi = rng.standard_normal((20_000, 4))
+    y = Phi @ rng.standard_normal(4) + 0.01 * rng.standard_normal(20_000)
+    est = adaptid.SlidingWindowRLS(4, 4, P0=1e12, nan_policy="skip")
     with pytest.warns(DefinitenessLossWarning):
         tr = est.copy().run(Phi, y)
     assert tr.n_rebuilds > 0
@@ -420,3 +421,25 @@ def test_cli_export_c(tmp_path, capsys):
                  "--name", "9x"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "name must be a C identifier" in err[0]
+
+
+def test_docs_example_runs(tmp_path, monkeypatch):
+    """docs/embedded.md: its Python block exports, its C block compiles (host gcc,
+    the strict flags) and tracks the plant's change from a = 0.9 to 0.8 (b = 0.5,
+    the simulated plant's true values) and counts the lost sample."""
+    import re
+    from pathlib import Path
+    page = (Path(__file__).resolve().parents[1] / "docs" / "embedded.md").read_text()
+    py = re.findall(r"^```python\n(.*?)^```", page, re.S | re.M)
+    c = re.findall(r"^```c\n(.*?)^```", page, re.S | re.M)
+    monkeypatch.chdir(tmp_path)
+    exec(compile(py[0], "embedded.md", "exec"), {"__name__": "docs_embedded"})
+    (tmp_path / "main.c").write_text(c[0])
+    exe = tmp_path / "main"
+    res = subprocess.run([_tool("gcc"), *CFLAGS, "-Ifirmware", "main.c", "firmware/plant.c",
+                          "-o", str(exe), "-lm"], capture_output=True, text=True)
+    assert res.returncode == 0 and res.stderr == "", res.stderr
+    out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout
+    m = re.match(r"a = (\S+), b = (\S+), skipped (\d+)", out)
+    assert m and abs(float(m[1]) - 0.8) < 1e-3 and abs(float(m[2]) - 0.5) < 1e-3 and m[3] == "1"
+    assert "It prints `" + out.strip().split(",")[0] in page.replace("\n", " ")
