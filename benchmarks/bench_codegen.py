@@ -114,7 +114,8 @@ def main(argv=None):
     ref = build_reference(tmp)
     p = ctypes.c_void_p
     print(f"# generated C vs adaptid run vs C reference ({REF_SOURCE.name}); N = {N}, "
-          f"{rounds} rounds; median updates/s (M/s) and median same-round ratios")
+          f"{rounds} rounds; median updates/s (M/s) and median same-round speed ratios "
+          "(a/b > 1: a faster)")
     print(f"# {subprocess.run([_gcc(), '--version'], capture_output=True, text=True).stdout.splitlines()[0]}; "
           f"numpy {np.__version__}; adaptid {adaptid.__version__}")
     header = ("| n | gen -O2 | gen -O3 FMA | adaptid run | C ref (best) | gen-O2/run | "

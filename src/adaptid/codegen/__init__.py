@@ -41,10 +41,12 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
         \theta_k = \theta_{k-1} + K_k\varepsilon_k,\quad
         P_k = P_{k-1} - K_k\varphi_k^T P_{k-1}.
 
-    Compiled with FMA contraction on a CPU with FMA (``gcc -ffp-contract=fast
-    -mfma`` on x86-64, as numba's ``fastmath={"contract"}``), the trajectory
-    is bit for bit that of :meth:`run`; without contraction it agrees to
-    rounding (see ``docs/embedded.md``).
+    Every product the kernel fuses (numba's ``fastmath={"contract"}``) is
+    written ``FMA(a, b, c)``: compiled with ``-DNAME_USE_FMA`` on a CPU with a
+    hardware FMA (x86-64 with ``-mfma``) and ``-ffp-contract=off`` (the default
+    of ``-std=c99``), the trajectory is bit for bit that of ``run``; without
+    it, the product is rounded first and the results agree to rounding
+    (≤ 1e-12 relative; see ``docs/embedded.md``).
 
     Parameters
     ----------

@@ -215,7 +215,10 @@ def _defines(info, dtype):
     if info["mode"] == "var":
         d.append(f"#define SIGMA0 {lit(info['sigma0'])}  /* sigma0^2 N0 */")
     if info["kind"] == "SlidingWindowRLS":
-        d.append(f"#define DOWNDATE_RTOL {lit(DOWNDATE_RTOL)}")
+        # the Python threshold 1e-8 ~ sqrt(eps64): a removal may cancel at most half
+        # the digits; in float32 half the digits is sqrt(eps32) = 3.5e-4
+        rtol = DOWNDATE_RTOL if dtype == "float64" else float(np.sqrt(np.finfo(np.float32).eps))
+        d.append(f"#define DOWNDATE_RTOL {lit(rtol)}")
         if info["lam"] != 1.0:
             # math.log is the C library's log, the one the compiled kernel calls
             d.append(f"#define LOG_LAMBDA {lit(math.log(info['lam']))}")
