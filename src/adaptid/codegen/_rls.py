@@ -184,7 +184,9 @@ _CONSTANT_TRACE = r"""
 # into the first addition, D_j U_ij + (U_iq D_q U_jq) -> fma; the generic one
 # (a loop) fuses the second, as everywhere else, and does not fuse
 # g P_ij + c2 (unrolled, it does).
-_SIJ_UNROLLED = r"""                real sij;
+_SIJ_UNROLLED = r"""                /* Pbar_ij = D_j U_ij + sum_{q > j} U_iq D_q U_jq; the first two
+                 * terms are fused as adaptid's compiled kernel fuses them */
+                real sij;
                 q = j + 1;
                 if (i < j && q < $N) {
                     sij = FMA(s->D[j], s->U[i][j], s->U[i][q] * s->D[q] * s->U[j][q]);
@@ -192,7 +194,8 @@ _SIJ_UNROLLED = r"""                real sij;
                 } else {
                     sij = i < j ? s->D[j] * s->U[i][j] : s->D[j];
                 }"""
-_SIJ_LOOP = r"""                real sij = i < j ? s->D[j] * s->U[i][j] : s->D[j];
+_SIJ_LOOP = r"""                /* Pbar_ij = D_j U_ij + sum_{q > j} U_iq D_q U_jq */
+                real sij = i < j ? s->D[j] * s->U[i][j] : s->D[j];
                 q = j + 1;"""
 
 
