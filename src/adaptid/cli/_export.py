@@ -46,8 +46,10 @@ def register(app: typer.Typer, output, guard):
         quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print nothing but errors.")] = False,
         debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of an error.")] = False,
     ):
-        """Write the estimator of STATE_FILE as dependency-free C99 (NAME.h, NAME.c) that
-        continues from its state; see docs/embedded.md."""
+        """Write the estimator of STATE_FILE as C99 code (NAME.h, NAME.c).
+
+        The code has no dependencies and continues from the saved state; see
+        docs/embedded.md."""
         o = output(ctx, quiet=quiet, debug=debug)
         with guard(o):
             paths = export_c(state_file, out, name, float32)
