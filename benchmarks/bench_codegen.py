@@ -44,7 +44,12 @@ for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
+HERE = Path(__file__).resolve().parent
+#: The shared reference loops (rls_run_nN / rls_tri_nN / rls_fu_nN); if absent,
+#: the repository's benchmarks/c/rls_ref.c (bench_rls.py's, rls_run with n fixed).
 REF_SOURCE = Path(os.environ.get("ADAPTID_RLS_REF", "/work/shared/bench/rls_ref.c"))
+if not REF_SOURCE.exists():
+    REF_SOURCE = HERE / "c" / "rls_ref.c"
 LAM, P0, NOISE = 0.99, 1e4, 0.1
 
 WRAPPER = r"""
@@ -86,11 +91,25 @@ def build_generated(n, folder, flags):
     return dll
 
 
-def build_reference(folder):
-    lib = folder / "rls_ref.so"
+def build_reference(folder, n):
+    """The reference loops for n as a list of f(N, Phi, y, theta, P) (built like bench_rls.py)."""
+    lib = folder / f"rls_ref_{n}.so"
     subprocess.run([_gcc(), "-O3", "-march=native", "-std=gnu11", "-fPIC", "-shared",
-                    str(REF_SOURCE), "-o", str(lib), "-lm"], check=True)
-    return ctypes.CDLL(str(lib))
+                    f"-DRLS_N={n}", str(REF_SOURCE), "-o", str(lib), "-lm"], check=True)
+    dll = ctypes.CDLL(str(lib))
+    p = ctypes.c_void_p
+    if hasattr(dll, f"rls_fu_n{n}"):  # the shared file: three variants per n
+        out = []
+        for v in ("rls_run", "rls_tri", "rls_fu"):
+            f = getattr(dll, f"{v}_n{n}")
+            f.argtypes = [ctypes.c_long, ctypes.c_int, p, p, ctypes.c_double, p, p]
+            f.restype = None
+            out.append(lambda N, Phi, y, th, P, f=f: f(N, 1, Phi, y, LAM, th, P))
+        return out
+    f = dll.rls_run
+    f.argtypes = [ctypes.c_int, ctypes.c_long, p, p, ctypes.c_double, p, p, p, p]
+    f.restype = ctypes.c_int
+    return [lambda N, Phi, y, th, P: f(n, N, Phi, y, LAM, th, P, None, None)]
 
 
 def make_data(n, N, seed=0):
@@ -111,8 +130,6 @@ def main(argv=None):
     import adaptid
 
     tmp = Path(tempfile.mkdtemp(prefix="adaptid-bench-codegen-"))
-    ref = build_reference(tmp)
-    p = ctypes.c_void_p
     print(f"# generated C vs adaptid run vs C reference ({REF_SOURCE.name}); N = {N}, "
           f"{rounds} rounds; median updates/s (M/s) and median same-round speed ratios "
           "(a/b > 1: a faster)")
@@ -126,10 +143,7 @@ def main(argv=None):
         Phi, y = make_data(n, N)
         g2 = build_generated(n, tmp / f"o2_{n}", ["-O2"])
         g3 = build_generated(n, tmp / f"o3_{n}", ["-O3", "-march=native", "-DGEN_USE_FMA"])
-        variants = [getattr(ref, f"{v}_n{n}") for v in ("rls_run", "rls_tri", "rls_fu")]
-        for f in variants:
-            f.argtypes = [ctypes.c_long, ctypes.c_int, p, p, ctypes.c_double, p, p]
-            f.restype = None
+        variants = build_reference(tmp, n)
         th = np.zeros(n)
 
         def t_gen(dll):
@@ -149,7 +163,7 @@ def main(argv=None):
                 theta = np.zeros(n)
                 P = np.eye(n) * P0
                 t0 = time.perf_counter()
-                f(N, 1, Phi.ctypes.data, y.ctypes.data, LAM, theta.ctypes.data, P.ctypes.data)
+                f(N, Phi.ctypes.data, y.ctypes.data, theta.ctypes.data, P.ctypes.data)
                 best = min(best, time.perf_counter() - t0)
             return best
 
@@ -158,6 +172,9 @@ def main(argv=None):
         est = adaptid.RLS(n, forgetting=LAM, P0=P0)
         est.run(Phi, y, store=False)
         assert np.array_equal(th, est.theta), "generated C (FMA) differs from adaptid"
+        theta, P = np.zeros(n), np.eye(n) * P0
+        variants[-1](N, Phi.ctypes.data, y.ctypes.data, theta.ctypes.data, P.ctypes.data)
+        assert np.allclose(theta, est.theta, rtol=1e-6, atol=1e-9), "C reference differs"
         contenders = {"g2": lambda: t_gen(g2), "g3": lambda: t_gen(g3), "run": t_run, "ref": t_ref}
         for fn in contenders.values():  # warm-up (numba compile, page faults)
             fn()

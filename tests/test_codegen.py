@@ -441,3 +441,23 @@ def test_docs_example_runs(tmp_path, monkeypatch):
     m = re.match(r"a = (\S+), b = (\S+), skipped (\d+)", out)
     assert m and abs(float(m[1]) - 0.8) < 1e-3 and abs(float(m[2]) - 0.5) < 1e-3 and m[3] == "1"
     assert "It prints `" + out.strip().split(",")[0] in page.replace("\n", " ")
+
+
+@pytest.mark.parametrize("script,args", [("bench_codegen.py", ["--quick", "--ns", "2", "--rounds", "1"]),
+                                         ("embedded_sizes.py", [])])
+def test_benchmark_scripts_run(script, args):
+    """The scripts behind docs/embedded.md's table and the BENCHMARKS figures run
+    (bench_codegen checks the FMA build against adaptid bit for bit before timing;
+    embedded_sizes that every stack frame is static). Speed is not asserted."""
+    import os
+    import sys
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    for tool in ("gcc", "arm-none-eabi-gcc", "arm-none-eabi-size", "arm-none-eabi-nm"):
+        _tool(tool)
+    env = dict(os.environ, PYTHONPATH=str(root / "src"))
+    res = subprocess.run([sys.executable, str(root / "benchmarks" / script), *args],
+                         capture_output=True, text=True, env=env, timeout=300)
+    assert res.returncode == 0, res.stderr
+    table = [line for line in res.stdout.splitlines() if line.startswith("| ")]
+    assert len(table) == (2 if script == "bench_codegen.py" else 25)
