@@ -305,6 +305,11 @@ def info(
                               for name, e in data["extras"].items()], left=3))
 
 
+from ._export import register as _register_export  # noqa: E402
+
+_register_export(app, _output, _guard)
+
+
 def main(argv=None) -> int:
     """Run the command line (``adaptid`` / ``python -m adaptid``); returns the exit code."""
     args = list(sys.argv[1:] if argv is None else argv)

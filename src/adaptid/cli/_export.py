@@ -1,0 +1,59 @@
+"""``adaptid export-c STATE_FILE --out DIR [--name NAME] [--float32]``.
+
+Reads a state file written by ``save_state`` and writes the estimator's
+recursion as ``NAME.h`` / ``NAME.c`` (see :func:`adaptid.codegen.to_c`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ._errors import CLIError
+
+__all__ = ["register", "export_c"]
+
+
+def export_c(state_file: Path, out: Path, name: str = "rls", float32: bool = False):
+    """Load ``state_file`` and write the C files; returns their paths. Errors: CLIError."""
+    from adaptid import load_state
+    from adaptid.codegen import to_c
+
+    try:
+        est = load_state(state_file)
+    except ValueError as err:  # StateFileError: unreadable, damaged, not a state file
+        raise CLIError(str(err)) from None
+    try:
+        return to_c(est, out, name=name, dtype="float32" if float32 else "float64")
+    except (ValueError, TypeError) as err:
+        raise CLIError(str(err)) from None
+    except OSError as err:
+        raise CLIError(f"--out {str(out)!r} cannot be written: {err.strerror or err}") from None
+
+
+def register(app: typer.Typer, output, guard):
+    """Add the ``export-c`` command to ``app`` (``output``/``guard`` from ``_app``)."""
+
+    @app.command("export-c")
+    def export_c_command(
+        ctx: typer.Context,
+        state_file: Annotated[Path, typer.Argument(help="State file written by save_state.")],
+        out: Annotated[Path, typer.Option("--out", "-o", help="Folder for NAME.h and NAME.c.")],
+        name: Annotated[str, typer.Option("--name", help="C identifier: file name and prefix.")] = "rls",
+        float32: Annotated[bool, typer.Option("--float32", help="Generate single precision.")] = False,
+        quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print nothing but errors.")] = False,
+        debug: Annotated[bool, typer.Option("--debug", help="Show the traceback of an error.")] = False,
+    ):
+        """Write the estimator of STATE_FILE as C99 code (NAME.h, NAME.c).
+
+        The code has no dependencies and continues from the saved state; see
+        docs/embedded.md."""
+        o = output(ctx, quiet=quiet, debug=debug)
+        with guard(o):
+            paths = export_c(state_file, out, name, float32)
+            if o.chatty:
+                o.print("wrote " + ", ".join(str(p) for p in paths))
+
+    return export_c_command
