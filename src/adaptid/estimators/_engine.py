@@ -35,6 +35,7 @@ from .._validation import (
     param_error,
 )
 from ._factor import P_from_ud, ud_from_P
+from ._hooks import upward as _upward
 from ._statefile import FORMAT
 from ._trajectory import Trajectory
 
@@ -688,6 +689,28 @@ class RecursiveEstimator:
             raise StateFileError(f"{path}: holds the state of a {type(est).__name__}, "
                                  f"not a {cls.__name__}")
         return est
+
+    def to_c(self, directory, *, name="rls", dtype="float64"):
+        r"""Write ``NAME.h`` and ``NAME.c``: this estimator's recursion in C99, from its state.
+
+        The generated update continues exactly where this estimator stands
+        (bit for bit with ``-DNAME_USE_FMA`` on a CPU with FMA). See
+        :func:`adaptid.codegen.to_c` for the generated interface, the
+        supported options and the verification, and ``docs/embedded.md``.
+
+        Parameters
+        ----------
+        directory : str or os.PathLike
+        name : str
+            C identifier: file names and the prefix of every symbol.
+        dtype : {"float64", "float32"}
+
+        Returns
+        -------
+        tuple of pathlib.Path
+            The header and the source file.
+        """
+        return _upward("adaptid.codegen").to_c(self, directory, name=name, dtype=dtype)
 
     def copy(self):
         """An independent deep copy."""

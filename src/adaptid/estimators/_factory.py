@@ -33,15 +33,17 @@ def method_options(method: str) -> tuple[str, ...]:
 
 
 def _classes():
-    from . import KalmanRLS, RLS, SlidingWindowRLS
+    from ._kalman import KalmanRLS
+    from ._rls import RLS
+    from ._window import SlidingWindowRLS
     return {"rls": RLS, "window": SlidingWindowRLS, "kalman": KalmanRLS}
 
 
 def method_of(est) -> str:
     """The method name of an estimator made by :func:`estimator` (its inverse)."""
-    for name, cls in _classes().items():
-        if type(est) is cls:
-            return name
+    name = getattr(type(est), "_method", None)
+    if name in _CLASSES and type(est).__name__ == _CLASSES[name]:
+        return name
     raise param_error("estimator", f"an estimator of one of the methods {', '.join(METHODS)}",
                       est, exc=TypeError)
 

@@ -43,6 +43,7 @@ class KalmanRLS(RecursiveEstimator):
     """
 
     _kind = "KalmanRLS"
+    _method = "kalman"  # its name for adaptid.estimator
 
     def __init__(self, n_params, *, process_cov, noise_var=1.0, theta0=None, P0=1e4,
                  nan_policy="raise", n_outputs=None, windup_threshold=None):

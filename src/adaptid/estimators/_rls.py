@@ -99,6 +99,7 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
     """
 
     _kind = "RLS"
+    _method = "rls"  # its name for adaptid.estimator
 
     def __init__(self, n_params, *, forgetting=1.0, P_max=None, theta0=None, P0=1e4,
                  nan_policy="raise", n_outputs=None, windup_threshold=None):

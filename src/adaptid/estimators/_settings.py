@@ -27,8 +27,7 @@ class KernelSettings:
 
     @classmethod
     def of(cls, est, theta, U, D):
-        from ._factory import method_of
-        method = method_of(est)
+        method = type(est)._method
         n = est.n_params
         kw = {}
         if method == "kalman":

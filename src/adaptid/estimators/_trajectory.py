@@ -108,7 +108,8 @@ class Trajectory:
         """
         if self.theta.ndim != 2:
             raise ValueError("plot is for a single-stream, single-output trajectory")
-        from ..plot import tracks  # the figure lives in the plotting layer
+        from ._hooks import upward
+        tracks = upward("adaptid.plot").tracks  # the figure lives in layer 7
 
         x = self.time if self.time is not None else self.meta.get("index")
         return tracks(self.theta, x=x, names=self._param_names(names), stderr=self.stderr,

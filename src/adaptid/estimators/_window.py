@@ -58,6 +58,7 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
     """
 
     _kind = "SlidingWindowRLS"
+    _method = "window"  # its name for adaptid.estimator
 
     def __init__(self, n_params, window, *, forgetting=1.0, theta0=None, P0=1e4,
                  nan_policy="raise", n_outputs=None, windup_threshold=None):

@@ -63,7 +63,7 @@ class _TimeSeries:
 
     def fit_percent(self, y, *, k=1):
         """Normalised fit (NRMSE, percent) of the k-step prediction (default k = 1)."""
-        from ..diagnostics import fit_percent
+        from .._teststats import fit_percent
 
         y = as_float_array(y, "y", ndim=1)
         return fit_percent(y, self.predict(y, k=check_int(k, "k", low=1)))

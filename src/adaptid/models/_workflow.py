@@ -67,7 +67,8 @@ class CompareResult:
 
     def plot(self, *, ax=None, fig=None):
         """The figure (:func:`adaptid.plot.compare`)."""
-        from ..plot import compare as figure  # drawing lives in the plotting layer
+        from ..estimators._hooks import upward
+        figure = upward("adaptid.plot").compare  # drawing lives in layer 7
 
         return figure(self, ax=ax, fig=fig)
 
@@ -197,7 +198,8 @@ class ResidResult:
 
     def plot(self, *, ax=None, fig=None):
         """The figure (:func:`adaptid.plot.resid`)."""
-        from ..plot import resid as figure  # drawing lives in the plotting layer
+        from ..estimators._hooks import upward
+        figure = upward("adaptid.plot").resid  # drawing lives in layer 7
 
         return figure(self, ax=ax, fig=fig)
 
