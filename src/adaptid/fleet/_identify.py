@@ -2,6 +2,7 @@ r"""The same identification for every device of a fleet, as one Dask computation
 
 from __future__ import annotations
 
+import numbers
 import os
 import threading
 import uuid
@@ -9,15 +10,10 @@ import uuid
 import numpy as np
 
 from .._validation import check_choice, check_int, check_scalar, param_error
+from ..estimators import METHODS
 
 __all__ = ["identify"]
 
-_METHODS = ("rls", "window", "kalman")
-_OPTIONS = {
-    "rls": ("forgetting", "theta0", "P0"),
-    "window": ("window", "forgetting", "theta0", "P0"),
-    "kalman": ("process_cov", "noise_var", "theta0", "P0"),
-}
 _CHANGE_TESTS = ("a-priori", "recursive")
 _STAT_COLUMNS = ("n_samples", "n_skipped", "sigma2", "rms", "change", "change_stat",
                  "change_at")
@@ -35,22 +31,25 @@ def _need(module):
 
 
 def _make_estimator(method, n, nan_policy, options):
-    """The prototype estimator of every group (validates the options early)."""
-    from .._estimators import RLS, KalmanRLS, SlidingWindowRLS
-    allowed = _OPTIONS[method]
-    for key in options:
-        if key not in allowed:
-            raise param_error(key, f"an option of method={method!r} "
-                              f"({', '.join(allowed)})", "<an unknown option>", exc=TypeError)
-    if method == "rls":
-        return RLS(n, nan_policy=nan_policy, **options)
-    if method == "window":
-        if "window" not in options:
-            raise param_error("window", "given for method='window'", "<None>", exc=TypeError)
-        return SlidingWindowRLS(n, nan_policy=nan_policy, **options)
-    if "process_cov" not in options:
-        raise param_error("process_cov", "given for method='kalman'", "<None>", exc=TypeError)
-    return KalmanRLS(n, nan_policy=nan_policy, **options)
+    """The prototype estimator of every group, from :func:`adaptid.estimator`."""
+    from ..estimators import estimator
+    if "n_outputs" in options:
+        raise param_error("n_outputs", "not given (the fleet identifies single-output "
+                          "models)", options["n_outputs"], exc=TypeError)
+    return estimator(method, n, nan_policy=nan_policy, **options)
+
+
+def _constant_forgetting(est):
+    """The estimator's constant λ (1 for Kalman and for a forgetting strategy).
+
+    A strategy's λₖ are not returned by ``run_segments``, so its factors are
+    taken as 1, as :func:`adaptid.recursive_fit_stats` does without
+    ``forgetting=``.
+    """
+    lam = getattr(est, "forgetting", None)
+    if isinstance(lam, numbers.Real) and not isinstance(lam, bool):
+        return float(lam)
+    return 1.0
 
 
 def _bde_a(alpha):
@@ -86,14 +85,67 @@ def _sort_order(codes, t, order):
     return np.lexsort(keys)
 
 
-def _column(part, name, idx, out=None):
-    col = part[name].to_numpy()
-    if idx is not None:
-        col = col[idx]
-    if out is None:
-        return np.ascontiguousarray(col, dtype=np.float64)
-    out[...] = col
-    return out
+def _float_column(part, name, arg):
+    """Column ``name`` as float64 (N,): any numeric or bool dtype, pandas nullable ones
+    (``pd.NA`` → NaN) and read-only arrays; anything else is refused naming the column."""
+    import pandas as pd
+    s = part[name]
+    dt = s.dtype
+    if isinstance(dt, np.dtype) and dt.kind in "fiub":
+        a = s.to_numpy()
+        return a if dt == np.float64 else a.astype(np.float64)
+    if not isinstance(dt, np.dtype) and (pd.api.types.is_numeric_dtype(dt)
+                                         or pd.api.types.is_bool_dtype(dt)):
+        return s.to_numpy(dtype=np.float64, na_value=np.nan)
+    raise param_error(arg, "a numeric column", f"<column {name!r} of dtype {dt}>")
+
+
+def _readonly(a):
+    """A read-only view (one compiled signature for a tuple of columns of mixed origin)."""
+    v = a.view()
+    v.flags.writeable = False
+    return v
+
+
+def _time_key(part, time, group, nan_policy):
+    """The ``time`` column as a sortable numeric key, and its missing rows (or None).
+
+    Numbers stay as they are (unsigned as int64 or float64); datetime64 (naive,
+    or tz-aware: converted to UTC) and timedelta become int64 nanoseconds. A
+    missing time (NaN, NaT, ``pd.NA``) follows ``nan_policy``: "raise" names
+    its group, "skip" sorts the row last in its group and skips the sample.
+    Strings and other dtypes are refused naming the column.
+    """
+    import pandas as pd
+    if time is None:
+        return None, None
+    s = part[time]
+    dt = s.dtype
+    if pd.api.types.is_datetime64_any_dtype(dt) or pd.api.types.is_timedelta64_dtype(dt):
+        vals = s.to_numpy(dtype="timedelta64[ns]" if pd.api.types.is_timedelta64_dtype(dt)
+                          else "datetime64[ns]")
+        missing = np.isnat(vals)
+        key = vals.view(np.int64)
+        fill = np.iinfo(np.int64).max
+    elif pd.api.types.is_bool_dtype(dt) or not pd.api.types.is_numeric_dtype(dt):
+        raise param_error("time", "a numeric, datetime64 or timedelta64 column",
+                          f"<column {time!r} of dtype {dt}>")
+    else:
+        key = _float_column(part, time, "time") if not (
+            isinstance(dt, np.dtype) and dt.kind in "iu") else s.to_numpy()
+        if key.dtype.kind == "u":
+            key = key.astype(np.int64 if key.dtype.itemsize < 8 else np.float64)
+        missing = np.isnan(key) if key.dtype.kind == "f" else None
+        fill = np.inf
+    if missing is None or not missing.any():
+        return key, None
+    if nan_policy == "raise":
+        g = _group_values(part, group)[int(np.argmax(missing))]
+        raise param_error("time", "free of NaN and NaT with nan_policy='raise'",
+                          f"<a missing time in group {_label(g)}>")
+    key = key.copy()
+    key[missing] = fill
+    return key, missing
 
 
 def _label(value) -> str:
@@ -101,7 +153,7 @@ def _label(value) -> str:
     return repr(value.item() if isinstance(value, np.generic) else value)
 
 
-def _layout(part, group, time, order_col):
+def _layout(part, group, t, order_col):
     """Row order and segments of a partition: (idx or None, offsets, labels, sorted time).
 
     Rows are ordered stably by (group, time, stored order); ``idx`` is None
@@ -113,10 +165,7 @@ def _layout(part, group, time, order_col):
     from ._kernels import scan_runs
     gv = _group_values(part, group)
     N = gv.shape[0]
-    t = part[time].to_numpy() if time is not None else None
-    tk = None
-    if t is not None and t.dtype.kind in "iufM":
-        tk = t.view(np.int64) if t.dtype.kind == "M" else t
+    tk = t if t is not None and t.dtype.kind in "if" else None
     if order_col is None and gv.dtype.kind in "iufM" and (t is None or tk is not None):
         gk = gv.view(np.int64) if gv.dtype.kind == "M" else gv
         starts = np.empty(N + 1, dtype=np.int64)
@@ -153,7 +202,7 @@ def _layout(part, group, time, order_col):
 def _gather(part, names, idx):
     """Columns ``names`` of ``part`` as C-ordered float64 rows (N, n), in row order idx."""
     from ._kernels import gather_columns
-    cols = tuple(np.ascontiguousarray(part[c].to_numpy(), dtype=np.float64) for c in names)
+    cols = tuple(_readonly(np.ascontiguousarray(_float_column(part, c, "phi"))) for c in names)
     out = np.empty((len(part), len(names)))
     use = idx is not None
     gather_columns(cols, idx if use else np.empty(1, dtype=np.int64), use, out)
@@ -162,28 +211,14 @@ def _gather(part, names, idx):
 
 def _identify_partition(part, *, group, y, phi, model, time, est, names, alpha_a,
                         change_test, burn_in, tracks, order_col):
-    import pandas as pd
-    n = len(names)
-    idx, offsets, uniq, t = _layout(part, group, time, order_col)
-    G = len(uniq)
-    pos = None
-    if model is None:
-        Phi = _gather(part, phi, idx)
-        Y = part[y].to_numpy()
-        Y = np.ascontiguousarray(Y if idx is None else Y[idx], dtype=np.float64)
-        row_t = t
-    else:
-        lengths = np.diff(offsets)
-        Phi, Y, pos, row_t, lengths = _model_rows(part, idx, lengths, uniq, t, model, names)
-        offsets = np.zeros(G + 1, dtype=np.int64)
-        np.cumsum(lengths, out=offsets[1:])
-    lengths = np.diff(offsets)
-    short = np.flatnonzero(lengths < n)
-    if short.size:
-        g = short[0]
-        raise param_error("data", f"at least n_params={n} samples in every group",
-                          f"<{int(lengths[g])} samples in group {_label(uniq[g])}>")
-
+    """One partition: order the rows, build (Φ, y), run the segments, one row per group."""
+    t_key, t_missing = _time_key(part, time, group, est.nan_policy)
+    if t_missing is not None and model is not None:  # the model sees only timed rows
+        part, t_key, t_missing = part[~t_missing], t_key[~t_missing], None
+    idx, offsets, uniq, t = _layout(part, group, t_key, order_col)
+    Phi, Y, pos, row_t, offsets = _regression_rows(part, idx, offsets, uniq, t, t_missing,
+                                                   y=y, phi=phi, model=model, names=names)
+    _check_lengths(offsets, uniq, len(names))
     _limit_threads()
     with _KERNEL_LOCK:
         try:
@@ -192,9 +227,45 @@ def _identify_partition(part, *, group, y, phi, model, time, est, names, alpha_a
             _raise_nonfinite(Phi, Y, offsets, uniq)
             raise
         stats = _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in)
+    out = _result_frame(res, stats, names, uniq, group, offsets, row_t, pos)
+    if tracks is not None:
+        lengths = np.diff(offsets)
+        if pos is None:
+            pos = np.arange(len(Y)) - np.repeat(offsets[:-1], lengths)
+        _write_tracks(tracks, group, uniq, lengths, res, names, pos, row_t, time)
+    return out
 
-    theta = res.theta
-    cols = {c: theta[:, j] for j, c in enumerate(names)}
+
+def _regression_rows(part, idx, offsets, uniq, t, t_missing, *, y, phi, model, names):
+    """(Φ, y, positions or None, time of each row, offsets) in segment order."""
+    if model is not None:
+        lengths = np.diff(offsets)
+        Phi, Y, pos, row_t, lengths = _model_rows(part, idx, lengths, uniq, t, model, names)
+        offsets = np.zeros(len(uniq) + 1, dtype=np.int64)
+        np.cumsum(lengths, out=offsets[1:])
+        return Phi, Y, pos, row_t, offsets
+    Phi = _gather(part, phi, idx)
+    Y = _float_column(part, y, "y")
+    Y = np.array(Y if idx is None else Y[idx], dtype=np.float64, order="C")  # own, writable
+    if t_missing is not None:  # a missing time: the sample is skipped (or refused) as NaN
+        Y[t_missing if idx is None else t_missing[idx]] = np.nan
+    return Phi, Y, None, t, offsets
+
+
+def _check_lengths(offsets, uniq, n):
+    lengths = np.diff(offsets)
+    short = np.flatnonzero(lengths < n)
+    if short.size:
+        g = short[0]
+        raise param_error("data", f"at least n_params={n} samples in every group",
+                          f"<{int(lengths[g])} samples in group {_label(uniq[g])}>")
+
+
+def _result_frame(res, stats, names, uniq, group, offsets, row_t, pos):
+    """The per-group table: θ, standard errors, counts, σ̂², RMS and the change flag."""
+    import pandas as pd
+    G = len(uniq)
+    cols = {c: res.theta[:, j] for j, c in enumerate(names)}
     cols.update({f"stderr_{c}": stats["stderr"][:, j] for j, c in enumerate(names)})
     first = stats["first"]
     has = first >= 0
@@ -209,12 +280,7 @@ def _identify_partition(part, *, group, y, phi, model, time, est, names, alpha_a
             at[has] = rows - offsets[:-1][has]
     cols.update(n_samples=res.n_samples, n_skipped=res.n_skipped, sigma2=stats["sigma2"],
                 rms=stats["rms"], change=has, change_stat=stats["ratio"], change_at=at)
-    out = pd.DataFrame(cols, index=pd.Index(uniq, name=group))
-    if tracks is not None:
-        if pos is None:
-            pos = np.arange(len(Y)) - np.repeat(offsets[:-1], lengths)
-        _write_tracks(tracks, group, uniq, lengths, res, names, pos, row_t, time)
-    return out
+    return pd.DataFrame(cols, index=pd.Index(uniq, name=group))
 
 
 def _raise_nonfinite(Phi, Y, offsets, uniq):
@@ -280,17 +346,18 @@ def _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in):
     n = Phi.shape[1]
     used = ~res.skipped
     window = int(getattr(est, "window", 0) or 0)
-    ss = np.empty(G)
+    ss, wss, neff = np.empty(G), np.empty(G), np.empty(G)
     count = np.empty(G, dtype=np.int64)
-    residual_ss_kernel(Phi, Y, used, offsets, np.ascontiguousarray(res.theta), window, ss,
-                       count)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dof = count - n
-        sigma2 = np.where(dof > 0, ss / np.maximum(dof, 1), np.nan)
+    residual_ss_kernel(Phi, Y, used, offsets, np.ascontiguousarray(res.theta), window,
+                       _constant_forgetting(est), ss, wss, neff, count)
+    # the rule of adaptid.recursive_fit_stats, per segment
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        dof = neff - n
+        sigma2 = np.where(dof > 0, wss / np.where(dof > 0, dof, 1.0), np.nan)
         rms = np.sqrt(ss / count)
-    noise_var = float(getattr(est, "noise_var", 1.0))
-    diagP = np.diagonal(res.P, axis1=1, axis2=2)
-    stderr = np.sqrt(np.maximum(diagP, 0.0) * (sigma2 / noise_var)[:, None])
+        noise_var = float(getattr(est, "noise_var", 1.0))
+        diagP = np.clip(np.diagonal(res.P, axis1=1, axis2=2), 0.0, None)
+        stderr = np.sqrt(diagP * (sigma2 / noise_var)[:, None])
 
     ratio = np.empty(G)
     first = np.empty(G, dtype=np.int64)
@@ -502,23 +569,26 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
 
     Notes
     -----
-    **Standard errors.** With :math:`\hat\theta_N` the final estimate,
+    **Standard errors.** The rule of :func:`adaptid.recursive_fit_stats`,
+    per group: with :math:`\hat\theta_N` the final estimate, :math:`r_k =
+    y_k - \varphi_k^T\hat\theta_N` and :math:`c_k` the factor with which
+    sample k enters the estimator's cost (:math:`\lambda^{m_k}`, m_k the
+    number of used samples after k, for ``"rls"`` and ``"window"`` —
+    the latter only over its last ``window`` used samples, 0 before —
+    and 1 for ``"kalman"``),
 
     .. math::
 
-        \hat\sigma^2 = \frac{1}{m - n}\sum_{k\in S}(y_k - \varphi_k^T\hat\theta_N)^2,
+        \hat\sigma^2 = \frac{\sum_k c_k r_k^2}{\sum_k c_k - n},
         \qquad \operatorname{stderr}_i = \sqrt{\hat\sigma^2 P_{ii}/R_2},
 
-    over the set S of the last m used samples the estimate rests on (all of
-    them for ``"rls"`` and ``"kalman"``, the last ``window`` for
-    ``"window"``); ``sigma2`` is :math:`\hat\sigma^2` and ``rms``
-    :math:`\sqrt{\sum_S r_k^2/m}`. :math:`R_2` is ``noise_var`` for
-    ``"kalman"`` (whose P is an absolute covariance when R₁, R₂ are right)
-    and 1 otherwise (P is then the unscaled inverse information, e.g.
-    :math:`(\sum_k\varphi_k\varphi_k^T + P_0^{-1})^{-1}` for RLS with λ = 1,
-    so that with a diffuse prior these are the ordinary least-squares
-    standard errors, as :func:`adaptid.lstsq`). (The sum of squared a-priori
-    errors is not used: it includes the start-up transient from θ₀.)
+    ``sigma2`` is :math:`\hat\sigma^2` (NaN when :math:`\sum_k c_k \le n`)
+    and ``rms`` :math:`\sqrt{\sum_S r_k^2/m}` over the m samples S with
+    :math:`c_k > 0`. :math:`R_2` is ``noise_var`` for ``"kalman"`` and 1
+    otherwise; with λ = 1 and a diffuse prior these are the ordinary
+    least-squares standard errors of :func:`adaptid.lstsq`. A forgetting
+    strategy's λₖ are not available per segment: its factors are taken
+    as 1.
 
     **Change flag.** The CUSUM test of Brown, Durbin & Evans (1975, §2.3),
     :func:`adaptid.diagnostics.cusum` with ``scale="ols"``: on m residuals
@@ -582,7 +652,7 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     import pandas as pd
     dask = _need("dask")
 
-    method = check_choice(method, "method", _METHODS)
+    method = check_choice(method, "method", METHODS)
     check_choice(nan_policy, "nan_policy", ("raise", "skip"))
     change_test = check_choice(change_test, "change_test", _CHANGE_TESTS)
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
