@@ -52,7 +52,7 @@ _LAZY = {
 }
 _SUBMODULES = (
     "estimators", "forgetting", "constrained", "continuous", "models", "diagnostics",
-    "datasets", "fleet", "sklearn",
+    "datasets", "fleet", "sklearn", "io", "plot",
 )
 
 __all__ = [
