@@ -649,123 +649,134 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     >>> res.shape[0]
     20
     """
-    import pandas as pd
-    dask = _need("dask")
-
+    _need("dask")
     method = check_choice(method, "method", METHODS)
     check_choice(nan_policy, "nan_policy", ("raise", "skip"))
     change_test = check_choice(change_test, "change_test", _CHANGE_TESTS)
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
-    if (phi is None) == (model is None):
-        raise param_error("phi", "given, or model given (exactly one of them)",
-                          "<both>" if phi is not None else "<neither>", exc=TypeError)
     kind, frame = _as_frame(data)
-    _check_column(frame, group, "group", allow_index=kind == "dask")
-    if time is not None:
-        _check_column(frame, time, "time")
-    if model is None:
-        _check_column(frame, y, "y")
-        if isinstance(phi, str):
-            phi = [phi]
-        phi = list(phi)
-        if not phi:
-            raise param_error("phi", "a non-empty list of column names", phi)
-        for c in phi:
-            _check_column(frame, c, "phi")
-        names = tuple(phi)
-    else:
-        if not callable(model):
-            raise param_error("model", "a callable group_df -> Regression", model,
-                              exc=TypeError)
-        names = getattr(model, "names", None)
-        names = tuple(names) if names is not None else None
+    phi, names = _check_columns(frame, kind, group=group, y=y, phi=phi, model=model, time=time)
     if npartitions is not None:
         npartitions = check_int(npartitions, "npartitions", low=1)
-
-    own_cluster = None
-    if isinstance(client, str):
-        distributed = _need("distributed")
-        if client == "local":
-            ncores = os.cpu_count() or 1
-            own_cluster = distributed.LocalCluster(n_workers=ncores, threads_per_worker=1,
-                                                   processes=True)
-            client = distributed.Client(own_cluster)
-        else:
-            client = distributed.Client(client)
-            own_cluster = client  # a connection we opened: close it afterwards
-    elif client is not None and not hasattr(client, "compute"):
-        raise param_error("client", "None, 'local', a scheduler address or a "
-                          "distributed.Client", client, exc=TypeError)
+    if burn_in is not None:
+        burn_in = check_int(burn_in, "burn_in", low=0)
+    client, own_cluster = _open_client(client)
     try:
-        dd = _need("dask.dataframe")
-        order_col = None
-        if kind == "pandas":
-            frame = frame.copy(deep=False)
-            frame.attrs = {}  # pandas deep-copies attrs on every slice: not needed here
-            keep = [c for c in ([group, time, y] + list(phi)) if c is not None] \
-                if model is None else list(frame.columns)
-            frame = frame[list(dict.fromkeys(keep))] if model is None else frame
-            parts = _pandas_partitions(frame, group, npartitions or _default_partitions(client))
-            ddf = dd.from_delayed([dask.delayed(p, pure=False) for p in parts],
-                                  meta=frame.iloc[:0], verify_meta=False)
-            sample = parts[0] if parts else frame.iloc[:0]
-        else:
-            ddf = frame
-            if model is None:
-                keep = [c for c in ([group, time, y] + list(phi))
-                        if c is not None and c in ddf.columns]
-                ddf = ddf[list(dict.fromkeys(keep))]
-            indexed = group not in ddf.columns and ddf.index.name == group \
-                and ddf.known_divisions
-            if not indexed:
-                if group not in ddf.columns:
-                    ddf = ddf.reset_index()
-                order_col = _ORDER
-                ddf = ddf.map_partitions(_add_order, meta=ddf._meta.assign(
-                    **{_ORDER: np.int64(0)}))
-                # in-process: a task shuffle (p2p needs the distributed scheduler)
-                how = {} if client is not None else {"shuffle_method": "tasks"}
-                ddf = ddf.shuffle(on=group, npartitions=npartitions or ddf.npartitions, **how)
-            sample = None
-
-        if names is None:  # learn the model's regressor names on one group
-            probe = sample if sample is not None else ddf.partitions[0].compute()
-            if len(probe) == 0:
-                raise param_error("data", "non-empty", "<no rows>")
-            gv = _group_values(probe, group)
-            first = probe[gv == gv[0]]
-            if time is not None:
-                first = first.sort_values(time, kind="stable")
-            names = tuple(model(first).names)
+        ddf, sample, order_col = _partitioned(kind, frame, group=group, y=y, phi=phi,
+                                              model=model, time=time, client=client,
+                                              npartitions=npartitions)
+        if names is None:
+            names = _model_names(ddf, sample, model, group, time)
         bad = [c for c in names if c in _STAT_COLUMNS or c.startswith("stderr_")]
         if bad:
             raise param_error("phi", "names that do not collide with the result columns "
                               f"{_STAT_COLUMNS}", bad[0])
-        n = len(names)
-        est = _make_estimator(method, n, nan_policy, estimator_options)
-        if burn_in is not None:
-            burn_in = check_int(burn_in, "burn_in", low=0)
+        est = _make_estimator(method, len(names), nan_policy, estimator_options)
         if tracks is not None:
             os.makedirs(os.fspath(tracks), exist_ok=True)
-
-        meta = _result_meta(names, group, frame, kind)
         kwargs = dict(group=group, y=y, phi=phi, model=model, time=time, est=est,
                       names=names, alpha_a=_bde_a(alpha), change_test=change_test,
                       burn_in=burn_in, tracks=tracks, order_col=order_col)
-        result = ddf.map_partitions(_identify_partition, meta=meta, enforce_metadata=False,
-                                    **kwargs)
+        result = ddf.map_partitions(_identify_partition, enforce_metadata=False,
+                                    meta=_result_meta(names, group, frame, kind), **kwargs)
         out = _compute(result, client, progress)
     finally:
-        if own_cluster is not None:
-            own_cluster.close()
-            if client is not own_cluster:
-                client.close()
+        _close_client(client, own_cluster)
     try:
         out = out.sort_index(kind="stable")
     except TypeError:  # pragma: no cover - unorderable group labels
         pass
     out.index.name = group
     return out
+
+
+# ---------------------------------------------------------------- the steps
+def _check_columns(frame, kind, *, group, y, phi, model, time):
+    """Validate the column arguments; returns (phi as a list or None, names or None)."""
+    if (phi is None) == (model is None):
+        raise param_error("phi", "given, or model given (exactly one of them)",
+                          "<both>" if phi is not None else "<neither>", exc=TypeError)
+    _check_column(frame, group, "group", allow_index=kind == "dask")
+    if time is not None:
+        _check_column(frame, time, "time")
+    if model is not None:
+        if not callable(model):
+            raise param_error("model", "a callable group_df -> Regression", model,
+                              exc=TypeError)
+        names = getattr(model, "names", None)
+        return None, (tuple(names) if names is not None else None)
+    _check_column(frame, y, "y")
+    phi = [phi] if isinstance(phi, str) else list(phi)
+    if not phi:
+        raise param_error("phi", "a non-empty list of column names", phi)
+    for c in phi:
+        _check_column(frame, c, "phi")
+    return phi, tuple(phi)
+
+
+def _open_client(client):
+    """(client, what to close afterwards): None, "local", an address or a Client."""
+    if isinstance(client, str):
+        distributed = _need("distributed")
+        if client == "local":
+            ncores = os.cpu_count() or 1
+            cluster = distributed.LocalCluster(n_workers=ncores, threads_per_worker=1,
+                                               processes=True)
+            return distributed.Client(cluster), cluster
+        client = distributed.Client(client)
+        return client, client  # a connection we opened: close it afterwards
+    if client is not None and not hasattr(client, "compute"):
+        raise param_error("client", "None, 'local', a scheduler address or a "
+                          "distributed.Client", client, exc=TypeError)
+    return client, None
+
+
+def _close_client(client, own):
+    if own is not None:
+        own.close()
+        if client is not own:
+            client.close()
+
+
+def _partitioned(kind, frame, *, group, y, phi, model, time, client, npartitions):
+    """(dask frame whose partitions hold whole groups, a pandas sample or None, order column)."""
+    dask = _need("dask")
+    dd = _need("dask.dataframe")
+    keep = None if model is not None else list(dict.fromkeys(
+        c for c in [group, time, y] + list(phi) if c is not None))
+    if kind == "pandas":
+        frame = frame.copy(deep=False)
+        frame.attrs = {}  # pandas deep-copies attrs on every slice: not needed here
+        if keep is not None:
+            frame = frame[keep]
+        parts = _pandas_partitions(frame, group, npartitions or _default_partitions(client))
+        ddf = dd.from_delayed([dask.delayed(p, pure=False) for p in parts],
+                              meta=frame.iloc[:0], verify_meta=False)
+        return ddf, (parts[0] if parts else frame.iloc[:0]), None
+    ddf = frame
+    if keep is not None:
+        ddf = ddf[[c for c in keep if c in ddf.columns]]
+    if group not in ddf.columns and ddf.index.name == group and ddf.known_divisions:
+        return ddf, None, None  # indexed by group with known divisions: no shuffle
+    if group not in ddf.columns:
+        ddf = ddf.reset_index()
+    ddf = ddf.map_partitions(_add_order, meta=ddf._meta.assign(**{_ORDER: np.int64(0)}))
+    # in-process: a task shuffle (p2p needs the distributed scheduler)
+    how = {} if client is not None else {"shuffle_method": "tasks"}
+    ddf = ddf.shuffle(on=group, npartitions=npartitions or ddf.npartitions, **how)
+    return ddf, None, _ORDER
+
+
+def _model_names(ddf, sample, model, group, time):
+    """Learn the model's regressor names on the first group of the first partition."""
+    probe = sample if sample is not None else ddf.partitions[0].compute()
+    if len(probe) == 0:
+        raise param_error("data", "non-empty", "<no rows>")
+    gv = _group_values(probe, group)
+    first = probe[gv == gv[0]]
+    if time is not None:
+        first = first.sort_values(time, kind="stable")
+    return tuple(model(first).names)
 
 
 def _result_meta(names, group, frame, kind):
