@@ -26,10 +26,11 @@ except ImportError:  # pragma: no cover - scikit-learn 1.4 / 1.5
 import numpy as np
 
 from ._validation import as_float_array, check_choice, param_error
+from .estimators import METHODS as _FACTORY_METHODS
 
 __all__ = ["RLSRegressor"]
 
-_METHODS = ("auto", "rls", "window", "kalman")
+_METHODS = ("auto",) + _FACTORY_METHODS
 
 
 def _validate(est, X, y="no_validation", *, reset, **kw):
@@ -300,7 +301,7 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
             core = self._make_core(X.shape[1], n_outputs)
         else:
             core = self.estimator_
-            had = None if core._single else core.n_outputs
+            had = None if core.theta.ndim == 1 else core.n_outputs
             if had != n_outputs:
                 raise param_error("y", f"of the same number of outputs as before ({had or 1}"
                                   f"{', 2-d' if had else ', 1-d'})", f"<shape {y.shape}>")

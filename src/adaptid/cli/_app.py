@@ -286,7 +286,9 @@ def fleet(
         nan_policy = {"skip": "skip", "error": "raise"}.get(nan.strip().lower())
         if nan_policy is None:
             raise CLIError(f"--nan must be 'skip' or 'error', got {nan!r}")
-        if method.strip().lower() not in ("rls", "window", "kalman"):
+        from adaptid.estimators import METHODS
+
+        if method.strip().lower() not in METHODS:
             raise CLIError(f"--method must be rls, window or kalman for fleet, got {method!r}")
         from ._engine import check_ranges
         from ._fleet import check_outputs, fleet_command, summary_text, write_result

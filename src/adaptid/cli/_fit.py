@@ -147,7 +147,7 @@ def _result(table, problem: Problem, fits, spec, physical, nan) -> dict:
     est = fits[0].estimator
     if est is not None:
         res["n_updates"] = int(est.n_updates)
-        opts = {k: v for k, v in est._options().items() if k not in ("nan_policy", "process_cov")}
+        opts = {k: v for k, v in est.get_state()["options"].items() if k not in ("nan_policy", "process_cov")}
         if hasattr(est, "process_cov"):
             opts["process_cov_diag"] = list(np.diag(est.process_cov))
         res["options"] = {k: (v if isinstance(v, (int, float, list)) else str(v)) for k, v in opts.items()}
