@@ -202,7 +202,10 @@ def _layout(part, group, t, order_col):
 def _gather(part, names, idx):
     """Columns ``names`` of ``part`` as C-ordered float64 rows (N, n), in row order idx."""
     from ._kernels import gather_columns
-    cols = tuple(_readonly(np.ascontiguousarray(_float_column(part, c, "phi"))) for c in names)
+    cols = [np.ascontiguousarray(_float_column(part, c, "phi")) for c in names]
+    if not all(c.flags.writeable for c in cols):  # one kind of array in the tuple
+        cols = [_readonly(c) for c in cols]
+    cols = tuple(cols)
     out = np.empty((len(part), len(names)))
     use = idx is not None
     gather_columns(cols, idx if use else np.empty(1, dtype=np.int64), use, out)
