@@ -138,3 +138,30 @@ def test_string_time_refused(base):
     df["time"] = df["time"].astype(str)
     with pytest.raises(ValueError, match="time.*'time'"):
         ident(df)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npz"])
+def test_cli_fleet_reads_through_adaptid_io(base, ref, tmp_path, suffix):
+    """`adaptid fleet` on a file of integer regressors (and ISO times in the CSV) equals
+    identify on the float64 frame: the file goes through adaptid.io like `adaptid fit`'s."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from adaptid.cli._app import app
+    df = base.copy()
+    df["i"] = df["i"].astype("int64")
+    path = tmp_path / f"f{suffix}"
+    if suffix == ".csv":
+        df["time"] = (pd.Timestamp("2024-01-01") + pd.to_timedelta(df["time"], unit="s")
+                      ).dt.strftime("%Y-%m-%dT%H:%M:%S")
+        df.to_csv(path, index=False, float_format="%.17g")
+    else:
+        np.savez(path, **{c: df[c].to_numpy() for c in df.columns})
+    r = CliRunner().invoke(app, ["fleet", str(path), "--group", "device", "--time", "time",
+                                 "--y", "v", "--phi", ",".join(PHI), "--json"])
+    assert r.exit_code == 0, r.output
+    got = pd.DataFrame(json.loads(r.stdout)["devices"]).set_index("device")
+    np.testing.assert_array_equal(got[PHI].to_numpy(), ref[PHI].to_numpy())
+    se = [f"stderr_{p}" for p in PHI]
+    np.testing.assert_array_equal(got[se].to_numpy(), ref[se].to_numpy())
