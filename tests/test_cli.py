@@ -122,13 +122,22 @@ def test_fit_reproduces_core_estimator(regression, opts, make):
     path, Phi, y, _ = regression
     out = run_json("fit", path, "--y", "y", "--phi", "a,b,c", *opts)
     est = make()
-    traj = est.run(Phi, y)
+    est.run(Phi, y)
     np.testing.assert_allclose(out["theta"], est.theta, rtol=0, atol=1e-12)
     assert out["names"] == ["a", "b", "c"]
     assert out["n_samples"] == len(y) and out["n_skipped"] == 0
     assert out["method"] == (opts[1] if opts else "rls")
-    # documented stderr: sqrt(mean a-priori error² after min(10 n, N/2) samples · diag(P) / R2)
-    s2 = np.mean(traj.error[30:] ** 2) / getattr(est, "noise_var", 1.0)
+    # documented stderr (issue 13 point 3 changed the rule; docs/guide.md "Standard errors
+    # of a recursive fit"), written out here: c_k = λ^(N-k) for rls, 1 in the last M
+    # samples of the window and 0 before, 1 for kalman; σ̂² = Σ c r² / (Σ c − n) with the
+    # residuals of the final estimate; se = sqrt(σ̂² diag(P) / R2)
+    N = len(y)
+    c = {"window": (np.arange(N) >= N - 50).astype(float),
+         "kalman": np.ones(N)}.get(out["method"], getattr(est, "forgetting", 1.0)
+                                    ** np.arange(N - 1, -1, -1.0))
+    r = y - Phi @ est.theta
+    s2 = (c @ (r * r)) / (c.sum() - 3) / getattr(est, "noise_var", 1.0)
+    # same sums in another order: rounding only
     np.testing.assert_allclose(out["stderr"], np.sqrt(s2 * np.diag(est.P)), rtol=1e-9)
 
 
@@ -165,12 +174,12 @@ def test_fit_arx_batch_against_numpy(rng, tmp_path):
     pd.DataFrame({"u": u, "y": y}).to_csv(path, index=False, float_format="%.17g")
     out = run_json("fit", path, "--arx", "2,2,1", "--u", "u", "--y", "y", "--method", "batch")
     k = np.arange(2, N)
-    # sign convention of the regressor names is the builder's; compare the predictions
     X = np.column_stack([y[k - 1], y[k - 2], u[k - 1], u[k - 2]])
     th, *_ = np.linalg.lstsq(X, y[k], rcond=None)
-    reg = adaptid.models.arx_regressors(y, u, 2, 2, 1)
-    np.testing.assert_allclose(reg.Phi @ np.asarray(out["theta"]), X[-len(reg.y):] @ th, atol=1e-9)
-    assert len(out["names"]) == 4
+    # issue 13 point 4 changed the convention: the CLI reports A(q) = 1 + a1 q^-1 + a2 q^-2
+    # (models.ARX's), so a_j is minus the coefficient of y[k-j] fitted by numpy here
+    np.testing.assert_allclose(out["theta"], [-th[0], -th[1], th[2], th[3]], rtol=1e-9)
+    assert out["names"] == ["a1", "a2", "b_u[0]", "b_u[1]"]
 
 
 @pytest.mark.parametrize("method", [["--method", "rls", "--forgetting", "0.99"],

@@ -40,7 +40,7 @@ def truth_of(df):
 
 # ------------------------------------------------------------------ helpers
 def loop_reference(df, est, *, phi=PHI, y="v", time="time", alpha=0.05, burn_in=None,
-                   window=0, noise_var=1.0):
+                   window=0, noise_var=1.0, forgetting=1.0):
     """What identify must give, by a plain loop of `run` over the groups."""
     n = len(phi)
     a_rows = {}
@@ -56,7 +56,9 @@ def loop_reference(df, est, *, phi=PHI, y="v", time="time", alpha=0.05, burn_in=
         if window:
             iu = iu[-window:]
         r = Y[iu] - Phi[iu] @ e.theta
-        sigma2 = r @ r / (iu.size - n)
+        # issue 13 point 3 (one rule, docs/guide.md): sample k weighs λ^(used samples after k)
+        c = forgetting ** np.arange(iu.size - 1, -1, -1.0)
+        sigma2 = (c @ (r * r)) / (c.sum() - n)
         stderr = np.sqrt(np.diag(e.P) * sigma2 / noise_var)
         burn = max(10 * n, int(np.ceil(0.1 * used.sum()))) if burn_in is None else burn_in
         err_rows = np.flatnonzero(used)[burn:]
@@ -161,7 +163,8 @@ def test_methods_equal_loop(small, method, options, window, noise_var):
     cls = {"rls": adaptid.RLS, "window": adaptid.SlidingWindowRLS,
            "kalman": adaptid.KalmanRLS}[method]
     est = cls(4, **options)
-    ref = loop_reference(small, est, window=window, noise_var=noise_var)
+    ref = loop_reference(small, est, window=window, noise_var=noise_var,
+                         forgetting=options.get("forgetting", 1.0))
     res = fleet.identify(small, group="device", y="v", phi=PHI, time="time", method=method,
                          **options)
     assert_same(res, ref)
@@ -423,7 +426,7 @@ def test_fleet_dataset_bad_arguments():
 
 # ------------------------------------------------------------------ CLI work
 def test_fleet_command(parquet_dir, small_ref, tmp_path):
-    from adaptid.fleet._cli import fleet_command, summary_text, write_result
+    from adaptid.cli._fleet import fleet_command, summary_text, write_result
     res = fleet_command(str(parquet_dir), "device", "v", "i,di_dt,omega,sign_i", time="time",
                         quiet=True)
     assert_same(res, small_ref)

@@ -53,7 +53,7 @@ _LAZY = {
 }
 _SUBMODULES = (
     "estimators", "forgetting", "constrained", "continuous", "models", "diagnostics",
-    "datasets", "fleet", "sklearn", "plot",
+    "datasets", "fleet", "sklearn", "io", "plot",
 )
 
 __all__ = [

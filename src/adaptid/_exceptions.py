@@ -1,4 +1,4 @@
-"""Warning classes of adaptid.
+"""Every exception and warning class of adaptid.
 
 Numerical trouble is reported with warnings of our own, never a bare
 ``RuntimeWarning``, so that users can filter them precisely::
@@ -13,6 +13,10 @@ __all__ = [
     "CovarianceWindupWarning",
     "ExcitationWarning",
     "StateFileError",
+    "InfeasibleError",
+    "IllConditionedWarning",
+    "DataFileError",
+    "CLIError",
 ]
 
 
@@ -46,3 +50,48 @@ class StateFileError(ValueError):
 
     Subclasses :class:`ValueError`.
     """
+
+
+class InfeasibleError(ValueError):
+    """The constraints of a least-squares problem have no feasible point.
+
+    Raised for inconsistent equality constraints (``d`` not in the range of
+    ``C``), for ``lb > ub`` and when the QP solver certifies that the
+    inequality constraints cannot be met. Subclasses :class:`ValueError`,
+    and its message names the arguments involved.
+    """
+
+
+class IllConditionedWarning(AdaptidWarning):
+    """A solution route squares the condition number of the problem.
+
+    Emitted by ``constrained_lstsq(..., method="kkt")`` (which forms the Gram
+    matrix ``AᵀA`` as in the reference) when the condition number of
+    ``[A; C]`` is so large that the Gram route is expected to lose more than
+    half of the significant digits; ``method="qr"`` does not lose them.
+    """
+
+
+class DataFileError(ValueError):
+    """A data table (:mod:`adaptid.io`) cannot be read or written as asked.
+
+    The message is one line that names the file (and the column or row at
+    fault). Subclasses :class:`ValueError`.
+    """
+
+    def __init__(self, message: str):
+        super().__init__(" ".join(str(message).split()))
+
+
+class CLIError(Exception):
+    """A problem with the user's input (file, column, option): exit code 2.
+
+    The message is one line that names the file, column or option at fault;
+    the command line prints it as ``adaptid: error: <message>`` on stderr,
+    without a traceback unless ``--debug`` is given.
+    """
+
+    exit_code = 2
+
+    def __init__(self, message: str):
+        super().__init__(" ".join(str(message).split()))

@@ -26,10 +26,11 @@ except ImportError:  # pragma: no cover - scikit-learn 1.4 / 1.5
 import numpy as np
 
 from ._validation import as_float_array, check_choice, param_error
+from .estimators import METHODS as _FACTORY_METHODS
 
 __all__ = ["RLSRegressor"]
 
-_METHODS = ("auto", "rls", "window", "kalman")
+_METHODS = ("auto",) + _FACTORY_METHODS
 
 
 def _validate(est, X, y="no_validation", *, reset, **kw):
@@ -100,6 +101,14 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
         0.0 when ``fit_intercept=False``.
     estimator_ : RLS, SlidingWindowRLS or KalmanRLS
         The core estimator holding θ, P and the recursion's state.
+    sigma2_ : float
+        σ̂² of the fit by :func:`adaptid.recursive_fit_stats` (the rule of
+        ``adaptid fit`` and ``adaptid fleet``). Set by :meth:`fit` for a
+        single output only (``partial_fit`` does not keep the earlier
+        chunks, so it removes it).
+    stderr_ : ndarray, shape (n_params,)
+        Standard errors of ``[coef_, intercept_]`` (the intercept last, when
+        ``fit_intercept``), by the same rule; set like ``sigma2_``.
     n_features_in_ : int
     feature_names_in_ : ndarray of str, shape (n_features_in_,)
         Only when X had string column names (a pandas DataFrame).
@@ -165,7 +174,7 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
         return np.hstack([X, np.ones((X.shape[0], 1))])
 
     def _make_core(self, n_features, n_outputs):
-        from .estimators import KalmanRLS, RLS, SlidingWindowRLS
+        from .estimators import estimator
         if not isinstance(self.fit_intercept, (bool, np.bool_)):
             raise param_error("fit_intercept", "a bool", self.fit_intercept, exc=TypeError)
         method = self._resolved_method()
@@ -183,11 +192,12 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
                 t0 = np.concatenate([t0, np.zeros((1,) + t0.shape[1:])], axis=0)
             theta0 = t0
         common = dict(theta0=theta0, P0=self.P0, n_outputs=n_outputs)
-        if method == "rls":
-            return RLS(n, forgetting=self.forgetting, **common)
+        if method == "kalman":
+            return estimator(method, n, process_cov=self.process_cov,
+                             noise_var=self.noise_var, **common)
         if method == "window":
-            return SlidingWindowRLS(n, self.window, forgetting=self.forgetting, **common)
-        return KalmanRLS(n, process_cov=self.process_cov, noise_var=self.noise_var, **common)
+            common["window"] = self.window
+        return estimator(method, n, forgetting=self.forgetting, **common)
 
     def _sample_weight(self, sample_weight, N):
         if sample_weight is None:
@@ -205,8 +215,12 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
                               "<all zero weights>")
         return w
 
-    def _run(self, core, X, y, sample_weight):
-        """Validate the weights, run ``core`` over the rows, then publish it."""
+    def _run(self, core, X, y, sample_weight, *, stats=False):
+        """Validate the weights, run ``core`` over the rows, then publish it.
+
+        With ``stats`` (a fit from the prior, single output): also ``sigma2_``
+        and ``stderr_`` by :func:`adaptid.recursive_fit_stats`.
+        """
         w = self._sample_weight(sample_weight, X.shape[0])
         Phi = self._design(X)
         # read-only inputs (e.g. memory maps) would make numba compile another
@@ -215,9 +229,18 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
             Phi = Phi.copy()
         if not y.flags.writeable:
             y = y.copy()
-        core.run(Phi, y, weights=w, store=False)
+        traj = core.run(Phi, y, weights=w, store=False)
         self.estimator_ = core
         self._set_coef()
+        for attr in ("sigma2_", "stderr_"):
+            self.__dict__.pop(attr, None)
+        if stats and y.ndim == 1:
+            from .estimators import recursive_fit_stats
+            with np.errstate(invalid="ignore", over="ignore"):
+                st = recursive_fit_stats(core, Phi, y, weights=w, forgetting=traj.forgetting,
+                                         used=~np.asarray(traj.skipped, dtype=bool))
+            self.sigma2_ = st.sigma2
+            self.stderr_ = st.stderr
 
     def _set_coef(self):
         theta = self.estimator_.theta            # (n,) or (n, p)
@@ -252,7 +275,7 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
         """
         X, y = self._check_xy(X, y, reset=True)
         n_outputs = None if y.ndim == 1 else y.shape[1]
-        self._run(self._make_core(X.shape[1], n_outputs), X, y, sample_weight)
+        self._run(self._make_core(X.shape[1], n_outputs), X, y, sample_weight, stats=True)
         return self
 
     def partial_fit(self, X, y, sample_weight=None):
@@ -278,7 +301,7 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
             core = self._make_core(X.shape[1], n_outputs)
         else:
             core = self.estimator_
-            had = None if core._single else core.n_outputs
+            had = None if core.theta.ndim == 1 else core.n_outputs
             if had != n_outputs:
                 raise param_error("y", f"of the same number of outputs as before ({had or 1}"
                                   f"{', 2-d' if had else ', 1-d'})", f"<shape {y.shape}>")

@@ -12,13 +12,51 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
+from typer.core import TyperGroup
+
+try:  # typer >= 0.20 vendors click as typer._click
+    from typer._click import exceptions as _clickx
+except ImportError:  # pragma: no cover - older typer with click
+    from click import exceptions as _clickx
 
 from ._errors import CLIError
 from ._output import Output
 
 __all__ = ["app", "main"]
 
+
+class _OneLineErrors(TyperGroup):
+    """Usage errors (mistyped option, missing argument, bad value) as one line, exit 2.
+
+    Instead of typer's boxed message: ``adaptid: error: <command>: <message>``
+    on stderr, like every other error of the command line.
+    """
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        try:
+            rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
+                              standalone_mode=False, **extra)
+        except _clickx.NoArgsIsHelpError as err:
+            err.show()
+            rv = err.exit_code
+        except _clickx.ClickException as err:
+            msg = " ".join(err.format_message().split())
+            ctx = getattr(err, "ctx", None)
+            where = ctx.command_path if ctx is not None else "adaptid"
+            sys.stdout.flush()
+            print(f"adaptid: error: {where}: {msg}", file=sys.stderr)
+            sys.stderr.flush()
+            rv = err.exit_code
+        except _clickx.Abort:
+            print("adaptid: interrupted", file=sys.stderr)
+            rv = 130
+        if not standalone_mode:
+            return rv
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
 app = typer.Typer(
+    cls=_OneLineErrors,
     name="adaptid",
     help="Least-squares parameter identification from the shell: `adaptid demo` identifies a "
          "simulated DC motor, `adaptid fit DATA` a model of your data, `adaptid info` reports "
@@ -180,8 +218,9 @@ def fit(
 ):
     """Identify y = θᵀφ + e from a data file, recursively or in one batch.
 
-    Standard errors of recursive methods are sqrt(σ̂² diag(P)) with σ̂² the mean
-    squared a-priori error after a warm-up of min(10 n, N/2) samples.
+    Standard errors of recursive methods are sqrt(σ̂² diag(P)/R2) with
+    σ̂² = Σ c_k r_k² / (Σ c_k − n), r_k the residuals of the final estimate and
+    c_k each sample's factor in the estimator's cost (adaptid.recursive_fit_stats).
     """
     out = _output(ctx, quiet, verbose, debug, json)
     with _guard(out):
@@ -247,10 +286,15 @@ def fleet(
         nan_policy = {"skip": "skip", "error": "raise"}.get(nan.strip().lower())
         if nan_policy is None:
             raise CLIError(f"--nan must be 'skip' or 'error', got {nan!r}")
-        if method.strip().lower() not in ("rls", "window", "kalman"):
-            raise CLIError(f"--method must be rls, window or kalman for fleet, got {method!r}")
-        from adaptid.fleet._cli import fleet_command, summary_text, write_result
+        from adaptid.estimators import METHODS
 
+        if method.strip().lower() not in METHODS:
+            raise CLIError(f"--method must be rls, window or kalman for fleet, got {method!r}")
+        from ._engine import check_ranges
+        from ._fleet import check_outputs, fleet_command, summary_text, write_result
+
+        check_ranges(forgetting=forgetting, P0=p0, process_cov=process_cov, noise_var=noise_var)
+        check_outputs(data, output, tracks)
         result = fleet_command(data, group, y=y, phi=phi, model=model,
                                method=method.strip().lower(), time=time, scheduler=scheduler,
                                tracks=None if tracks is None else str(tracks),

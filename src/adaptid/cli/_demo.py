@@ -89,10 +89,10 @@ class _KalmanSpec(MethodSpec):
         self._Q = np.diag((KALMAN_RATE * np.abs(res.theta)) ** 2 + 1e-300)
 
     def make(self, n, nan_policy):
-        import adaptid
+        from adaptid.estimators import estimator
 
-        return adaptid.KalmanRLS(n, process_cov=self._Q, noise_var=self.noise_var, P0=self.P0,
-                                 nan_policy=nan_policy)
+        return estimator("kalman", n, process_cov=self._Q, noise_var=self.noise_var, P0=self.P0,
+                         nan_policy=nan_policy)
 
     def label(self, est=None):
         return f"Kalman ρ={KALMAN_RATE:g}"
@@ -252,8 +252,8 @@ def _report(out_dir, regs, fits, tracks, summary, truth, t, idx, t_load, seed, N
                        "truth": (tt, c * truth[p].to_numpy()[idx])})
     rep.section("Parameter tracks")
     rep.figure("tracks.png", tracks_figure(panels, xlabel="time [s]", events=(t_load,)),
-               "Physical parameters after each sample, with ±2σ bands (σ² = mean squared a-priori "
-               "error × diag(P), mapped by the delta method), and the truth (dashed). "
+               "Physical parameters after each sample, with ±2σ bands (σ̂² × diag(P), σ̂² by "
+               "adaptid.recursive_fit_stats, mapped by the delta method), and the truth (dashed). "
                "Dotted line: load coupled.")
     rep.end()
     rows = []

@@ -5,22 +5,12 @@ the estimator's ``P`` at every chunk end: that gives the ±2σ bands of the
 report and drives the progress bar, and the result is bit-for-bit the one
 of a single ``run`` (the estimator's state carries over exactly).
 
-Standard errors of a recursive estimate are
-
-.. math::
-
-    \mathrm{se}_i = \sqrt{\hat\sigma^2\,P_{ii}/R_2},\qquad
-    \hat\sigma^2 = \frac{1}{|K|}\sum_{k\in K}\varepsilon_k^2,
-
-with :math:`\varepsilon_k` the a-priori errors of the run, K the samples
-after a warm-up of min(10 n, N/2) samples (none when the run continues a
-saved state) that were not skipped, and :math:`R_2` the Kalman filter's
-``noise_var`` (1 for RLS and the sliding window). For the sliding window P
-is the exact inverse information of the window, so this is the usual
-least-squares standard error; for RLS with forgetting λ < 1 it is
-conservative by about :math:`\sqrt{(1+\lambda)}` (the exponentially
-weighted estimate's covariance is :math:`\approx\sigma^2 P/(1+\lambda)`).
-For ``batch`` the standard errors are :func:`adaptid.lstsq`'s.
+Standard errors of a recursive estimate follow the one rule of
+:func:`adaptid.recursive_fit_stats` (σ̂² from the final estimate's
+residuals weighted by each sample's factor in the estimator's cost; see the
+user guide, "Standard errors of a recursive fit"); with ``--resume`` the
+sums run over the samples of this run. For ``batch`` the standard errors
+are :func:`adaptid.lstsq`'s.
 """
 
 from __future__ import annotations
@@ -35,8 +25,9 @@ from ._errors import CLIError
 
 __all__ = ["MethodSpec", "EquationFit", "fit_equation", "run_chunked", "METHODS"]
 
-METHODS = ("rls", "window", "kalman", "batch")
-_CLASS_TO_METHOD = {"RLS": "rls", "SlidingWindowRLS": "window", "KalmanRLS": "kalman"}
+from adaptid.estimators import METHODS as _RECURSIVE
+
+METHODS = _RECURSIVE + ("batch",)
 
 
 @dataclass
@@ -84,45 +75,34 @@ class MethodSpec:
                 raise CLIError("--P0 does not apply to --method batch (batch least squares has no prior)")
         if save_state is not None and (self.method == "batch"):
             raise CLIError("--save-state does not apply to --method batch (no recursive state)")
-        if self.forgetting is not None and not (0.0 < self.forgetting <= 1.0):
-            raise CLIError(f"--forgetting must be in (0, 1], got {self.forgetting:g}")
         if self.window is not None and self.window < 1:
             raise CLIError(f"--window must be a positive integer, got {self.window}")
-        if self.process_cov is not None and not (self.process_cov >= 0.0 and math.isfinite(self.process_cov)):
-            raise CLIError(f"--process-cov must be a finite number >= 0, got {self.process_cov:g}")
-        if self.noise_var is not None and not (self.noise_var > 0.0 and math.isfinite(self.noise_var)):
-            raise CLIError(f"--noise-var must be a finite number > 0, got {self.noise_var:g}")
-        if self.P0 is not None and not (self.P0 > 0.0 and math.isfinite(self.P0)):
-            raise CLIError(f"--P0 must be a finite number > 0, got {self.P0:g}")
+        check_ranges(forgetting=self.forgetting, P0=self.P0, process_cov=self.process_cov,
+                     noise_var=self.noise_var)
 
     def make(self, n: int, nan_policy: str):
-        """A fresh estimator for n parameters."""
-        import adaptid
+        """A fresh estimator for n parameters (None for batch), from ``adaptid.estimator``."""
+        from adaptid.estimators import estimator
 
-        kw = {"nan_policy": nan_policy}
-        if self.P0 is not None:
-            kw["P0"] = self.P0
         m = self.resolved
-        if m in ("rls", "window") and self.forgetting is not None:
-            kw["forgetting"] = self.forgetting
+        if m == "batch":
+            return None
         if m == "window" and self.window < n:
             raise CLIError(f"--window must be at least the number of parameters ({n}), got {self.window}")
+        given = {"P0": self.P0, "forgetting": self.forgetting, "window": self.window,
+                 "process_cov": self.process_cov, "noise_var": self.noise_var}
+        allowed = _method_options(m)
+        kw = {k: v for k, v in given.items() if v is not None and k in allowed}
         try:
-            if m == "rls":
-                return adaptid.RLS(n, **kw)
-            if m == "window":
-                return adaptid.SlidingWindowRLS(n, self.window, **kw)
-            if m == "kalman":
-                if self.noise_var is not None:
-                    kw["noise_var"] = self.noise_var
-                return adaptid.KalmanRLS(n, process_cov=self.process_cov, **kw)
+            return estimator(m, n, nan_policy=nan_policy, **kw)
         except ValueError as err:
             raise CLIError(str(err)) from None
-        return None  # batch
 
     def adopt(self, est, n: int, nan_policy: str, path):
         """Check a resumed estimator against the options given; set its nan policy."""
-        method = _CLASS_TO_METHOD.get(type(est).__name__)
+        from adaptid.estimators import method_of
+
+        method = method_of(est)
         if self.method is not None and self.method != method:
             raise CLIError(f"--method {self.method} differs from the state file {path} "
                            f"(a {type(est).__name__}, --method {method})")
@@ -167,6 +147,38 @@ class MethodSpec:
         if m == "kalman":
             return "Kalman"
         return "batch LS"
+
+
+#: Ranges of the numeric options where float64 arithmetic holds (docs/guide.md,
+#: "Numbers the shell accepts"): a prior, random-walk or noise variance beyond
+#: 10^±100 times the data's scale leaves too little of the float64 exponent range
+#: (±308) for the products P·φφᵀ·P of an update (P0 = 1e308 gives θ wrong in the
+#: second digit, 1e200 still right); λ ≥ 1e-100 keeps P0/λ ≤ 1e200.
+RANGES = {
+    "--forgetting": (1e-100, 1.0, "in [1e-100, 1]"),
+    "--P0": (1e-100, 1e100, "in [1e-100, 1e100]"),
+    "--process-cov": (0.0, 1e100, "0 or in (0, 1e100]"),
+    "--noise-var": (1e-100, 1e100, "in [1e-100, 1e100]"),
+}
+_REASON = ("outside it float64 arithmetic overflows or loses the estimate "
+           "(see 'Numbers the shell accepts' in the user guide)")
+
+
+def check_ranges(*, forgetting=None, P0=None, process_cov=None, noise_var=None):
+    """Raise CLIError naming the option for a value outside :data:`RANGES`."""
+    for opt, val in (("--forgetting", forgetting), ("--P0", P0),
+                     ("--process-cov", process_cov), ("--noise-var", noise_var)):
+        if val is None:
+            continue
+        lo, hi, text = RANGES[opt]
+        if not (math.isfinite(val) and lo <= val <= hi):
+            raise CLIError(f"{opt} must be {text}, got {val:g}; {_REASON}")
+
+
+def _method_options(method):
+    from adaptid.estimators import method_options
+
+    return method_options(method)
 
 
 def _fmt_opt(v) -> str:
@@ -239,15 +251,6 @@ def run_chunked(est, Phi, y, *, n_chunks=200, advance=None):
             np.asarray(ends, dtype=np.int64), np.stack(Ps), rebuilds)
 
 
-def noise_variance(error, skipped, *, warmup: int) -> float:
-    """Mean squared a-priori error after the warm-up, over samples not skipped."""
-    e = np.asarray(error, dtype=np.float64)[warmup:]
-    e = e[np.isfinite(e)]
-    if e.size == 0:
-        return float("nan")
-    return float(np.mean(e * e))
-
-
 def fit_equation(title, names, Phi, y, index, spec: MethodSpec, *, nan_policy="raise",
                  est=None, n_chunks=200, advance=None, want_cusum=False) -> EquationFit:
     """Estimate one regression with the method of ``spec`` (or continue ``est``)."""
@@ -268,17 +271,17 @@ def fit_equation(title, names, Phi, y, index, spec: MethodSpec, *, nan_policy="r
             except ValueError as e:
                 raise CLIError(f"{title}: {e}") from None
             warm = min(10 * n, N // 2) if (fresh or start_updates == 0) else 0
-            sigma2 = noise_variance(err, skipped, warmup=warm)
+            stats = _fit_stats(est, Phi, y, skipped)
+            sigma2 = stats.sigma2
             r2 = float(getattr(est, "noise_var", 1.0))
             scale = sigma2 / r2 if np.isfinite(sigma2) else np.nan
-            P = est.P
-            cov = scale * P
+            cov = scale * est.P
             band = np.sqrt(np.maximum(scale * np.diagonal(Ps, axis1=1, axis2=2), 0.0))
             finite = np.isfinite(err)
             fit = EquationFit(
                 title=title, method=spec.resolved, label=spec.label(est), names=list(names),
                 theta=np.asarray(est.theta, dtype=np.float64).copy(),
-                stderr=np.sqrt(np.maximum(np.diag(cov), 0.0)), cov=cov, sigma2=sigma2,
+                stderr=stats.stderr, cov=cov, sigma2=sigma2,
                 n_samples=N, n_skipped=int(np.count_nonzero(skipped)), error=err, index=index,
                 track=th, ends=ends, band=band, cov_ends=scale * Ps, estimator=est,
                 n_rebuilds=int(rebuilds),
@@ -292,6 +295,14 @@ def fit_equation(title, names, Phi, y, index, spec: MethodSpec, *, nan_policy="r
             caught.append(msg)
     fit.warnings = caught
     return fit
+
+
+def _fit_stats(est, Phi, y, skipped):
+    """σ̂² and standard errors by the one rule (``adaptid.recursive_fit_stats``)."""
+    from adaptid.estimators import recursive_fit_stats
+
+    with np.errstate(invalid="ignore", over="ignore"):
+        return recursive_fit_stats(est, Phi, y, used=~np.asarray(skipped, dtype=bool))
 
 
 def _fit_batch(title, names, Phi, y, index, spec, advance):

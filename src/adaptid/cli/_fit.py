@@ -10,7 +10,7 @@ import numpy as np
 
 from ._engine import MethodSpec, fit_equation
 from ._errors import CLIError
-from ._io import read_table
+from ..io import read_table
 from ._output import Output
 from ._problem import Problem, Structure, build_problem
 
@@ -40,10 +40,7 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     if structure.kind == "dc-motor" and (save_state is not None or resume is not None):
         raise CLIError("--save-state/--resume are not available with --dc-motor (two estimators "
                        "and filtered derivatives); use --y/--phi with the regressor columns")
-    if save_state is not None:
-        folder = Path(os.fspath(save_state)).parent
-        if str(folder) and not folder.is_dir():
-            raise CLIError(f"--save-state {save_state}: the folder {folder} does not exist")
+    check_outputs(data, out=out, save_state=save_state, resume=resume)
     est0 = _load_resume(resume) if resume is not None else None
 
     table = read_table(data)
@@ -68,12 +65,6 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     for f in fits:
         for w in f.warnings:
             output.warn(f"{f.title}: {w}")
-    if save_state is not None:
-        try:
-            fits[0].estimator.save_state(save_state)
-        except OSError as err:
-            raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err})") from None
-
     physical = None
     if problem.regs is not None:
         from ._physical import physical_estimates
@@ -84,8 +75,47 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     result["elapsed_s"] = _time.perf_counter() - t0
     if out is not None:
         result["report"] = str(_write_report(out, table, problem, fits, physical, result))
+    if save_state is not None:  # last, after everything else succeeded (save_state is atomic)
+        try:
+            fits[0].estimator.save_state(save_state)
+        except OSError as err:
+            raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err})") from None
     _print(output, result, fits, physical)
     return result
+
+
+def check_outputs(data, *, out=None, save_state=None, resume=None):
+    """Before reading or computing anything: every output can be written and is no input.
+
+    ``--save-state`` may name the ``--resume`` file (that advances it), never the
+    data file; ``--out`` must be a folder that exists or can be created.
+    """
+    from ..io import check_writable
+
+    inputs = [p for p in (data, resume) if p is not None and os.path.exists(p)]
+    if save_state is not None:
+        try:
+            check_writable(save_state, what="--save-state")
+        except ValueError as err:
+            raise CLIError(f"--save-state: {err}") from None
+        if os.path.exists(save_state) and os.path.exists(data) and os.path.samefile(save_state, data):
+            raise CLIError(f"--save-state {save_state} is the data file; choose another name")
+    if out is not None:
+        folder = Path(os.fspath(out))
+        if folder.exists() and not folder.is_dir():
+            raise CLIError(f"--out {folder}: exists and is not a folder")
+        for p in inputs:
+            if folder.exists() and os.path.samefile(folder, p):
+                raise CLIError(f"--out {folder} is the input {p}")
+        probe = folder
+        while not probe.exists():
+            probe = probe.parent
+        if not probe.is_dir():
+            raise CLIError(f"--out {folder}: cannot create the report folder ({probe} is not a "
+                           "folder)")
+        if not os.access(probe, os.W_OK | os.X_OK):
+            raise CLIError(f"--out {folder}: cannot create the report folder ({probe} is not "
+                           "writable)")
 
 
 def _result(table, problem: Problem, fits, spec, physical, nan) -> dict:
@@ -117,7 +147,7 @@ def _result(table, problem: Problem, fits, spec, physical, nan) -> dict:
     est = fits[0].estimator
     if est is not None:
         res["n_updates"] = int(est.n_updates)
-        opts = {k: v for k, v in est._options().items() if k not in ("nan_policy", "process_cov")}
+        opts = {k: v for k, v in est.get_state()["options"].items() if k not in ("nan_policy", "process_cov")}
         if hasattr(est, "process_cov"):
             opts["process_cov_diag"] = list(np.diag(est.process_cov))
         res["options"] = {k: (v if isinstance(v, (int, float, list)) else str(v)) for k, v in opts.items()}
@@ -151,7 +181,7 @@ def _print(output: Output, result, fits, physical):
 
 
 def _write_report(out, table, problem: Problem, fits: list, physical, result):
-    from ._report import Report, cusum_figure, errors_figure, tracks_figure
+    from ._report import Report, cusum_figure, errors_figure
 
     rep = Report(out, f"adaptid fit: {Path(table.path).name}",
                  f"{problem.kind} model · {fits[0].label} · {result['n_samples']} samples · "
@@ -175,19 +205,21 @@ def _write_report(out, table, problem: Problem, fits: list, physical, result):
         return problem.time[index] if use_time else index + 1.0
 
     if fits[0].track is not None:
-        panels = []
+        from adaptid import plot
+
+        fig, axes = plot.panel_axes(sum(len(f.names) for f in fits))
+        at = 0
         for f in fits:
-            x = xaxis(f.index)
-            for j, name in enumerate(f.names):
-                xb = x[f.ends]
-                yb = f.track[f.ends, j]
-                panels.append({"name": (f"{f.title}: " if len(fits) > 1 else "") + name,
-                               "series": [{"label": f.label, "x": x, "y": f.track[:, j], "xb": xb,
-                                           "lo": yb - 2 * f.band[:, j], "hi": yb + 2 * f.band[:, j]}]})
+            names = [(f"{f.title}: " if len(fits) > 1 else "") + n for n in f.names]
+            plot.tracks(xaxis(f.index), f.track, names, band=f.band, band_at=f.ends,
+                        label=f.label, xlabel=xlabel, ax=axes[at:at + len(names)])
+            at += len(names)
+        fig.legend(*axes[0].get_legend_handles_labels(), loc="outside upper center", ncol=1,
+                   fontsize=9, frameon=False)
         rep.section("Parameter tracks")
-        rep.figure("tracks.png", tracks_figure(panels, xlabel=xlabel),
+        rep.figure("tracks.png", fig,
                    "Estimates after each sample, with ±2σ bands from the estimator's P "
-                   "(σ² = mean squared a-priori error after warm-up).")
+                   "(σ̂² by the rule of adaptid.recursive_fit_stats).")
         rep.end()
     rep.section("Prediction error")
     rows = [(f"{f.title}: " + ("a-priori error" if f.track is not None else "residual"),

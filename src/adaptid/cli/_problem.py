@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._errors import CLIError
-from ._io import Table
+from ..io import Table
 
 __all__ = ["Structure", "Problem", "build_problem", "parse_orders", "split_names"]
 
@@ -39,6 +39,28 @@ def parse_orders(text: str | None, option: str, labels: tuple) -> tuple | None:
         if v < 0:
             raise CLIError(f"{option}: {lab} must be >= 0, got {v}")
     return values
+
+
+def polynomial_form(Phi, na: int, inputs, nb: int):
+    r"""ARX/FIR regressors in the model objects' polynomial convention, and their names.
+
+    :func:`adaptid.models.arx_regressors` puts :math:`+y_{k-j}` in the
+    first ``na`` columns; :class:`adaptid.models.ARX` writes
+    :math:`A(q) = 1 + a_1q^{-1} + \dots`, whose coefficient multiplies
+    :math:`-y_{k-j}`. The columns are negated (exactly: a sign flip) so that
+    θ holds :math:`a_1, \dots, a_{n_a}` as ``models.ARX`` reports them. Names:
+    ``a1`` … ``a{na}``, then for each input column ``c`` (in ``--u`` order)
+    ``b_c[0]`` … ``b_c[nb-1]``, :math:`b_j` being the model objects' ``bj``
+    (coefficient of :math:`q^{-(n_k + j)}` in :math:`B(q)`).
+    """
+    Phi = np.array(Phi, dtype=np.float64, order="C")
+    Phi[:, :na] *= -1.0
+    names = [f"a{j}" for j in range(1, na + 1)]
+    for col in inputs:
+        names += [f"b_{col}[{j}]" for j in range(nb)]
+    if len(names) != Phi.shape[1]:  # pragma: no cover - the builders' layout changed
+        raise RuntimeError("ARX/FIR regressor layout does not match its names")
+    return names, Phi
 
 
 @dataclass
@@ -161,7 +183,9 @@ def build_problem(table: Table, s: Structure, nan_policy: str) -> Problem:
                 reg = models.fir_regressors(y, u, nb, nk)
         except ValueError as e:
             raise CLIError(f"--{kind}: {e}") from None
-        return Problem(kind, [(kind.upper(), list(reg.names), reg.Phi, np.asarray(reg.y, dtype=float),
+        names, Phi = polynomial_form(reg.Phi, s.arx[0] if kind == "arx" else 0, u_names,
+                                     s.arx[1] if kind == "arx" else s.fir[0])
+        return Problem(kind, [(kind.upper(), names, Phi, np.asarray(reg.y, dtype=float),
                                np.asarray(reg.index))], len(y), time=time,
                        columns=[s.y, *u_names], nan_rows=nan)
     # dc-motor

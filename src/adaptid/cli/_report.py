@@ -22,7 +22,6 @@ from ._errors import CLIError
 
 __all__ = ["Report", "tracks_figure", "errors_figure", "cusum_figure"]
 
-_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
 
 _CSS = """
 body{font-family:-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0;
@@ -174,83 +173,30 @@ def _num(v):
 
 
 # ------------------------------------------------------------------ figures
-def _decimate(n: int, target: int = 3000) -> slice:
-    return slice(None, None, max(1, n // target))
-
-
-def _robust_limits(arrays, truth=None, skip_frac=0.05):
-    """y-limits from the 1–99 % range of the curves (after the first transient).
-
-    With a truth, the limits never reach beyond the truth's range ± 50 % of its
-    magnitude, so that an estimator losing identifiability for a while does
-    not flatten everybody else's curve.
-    """
-    lo = hi = None
-    for a in arrays:
-        a = np.asarray(a, dtype=float)
-        a = a[int(len(a) * skip_frac):]
-        a = a[np.isfinite(a)]
-        if a.size:
-            p1, p99 = np.percentile(a, [1, 99])
-            lo = p1 if lo is None else min(lo, p1)
-            hi = p99 if hi is None else max(hi, p99)
-    if truth is not None:
-        t = np.asarray(truth, dtype=float)
-        t = t[np.isfinite(t)]
-        if t.size:
-            tmin, tmax = float(t.min()), float(t.max())
-            mag = max(abs(tmin), abs(tmax)) or 1.0
-            lo = tmin if lo is None else max(min(lo, tmin), tmin - 0.5 * mag)
-            hi = tmax if hi is None else min(max(hi, tmax), tmax + 0.5 * mag)
-    if lo is None:
-        return None
-    span = hi - lo
-    if not span > 0:
-        span = abs(hi) * 0.1 or 1.0
-    return lo - 0.1 * span, hi + 0.1 * span
+# The drawing is adaptid.plot's (public); these compose the report's panels.
 
 
 def tracks_figure(panels, *, xlabel="sample", events=()):
-    """Parameter tracks: one panel per parameter.
+    """Parameter tracks: one panel per parameter, several estimators per panel.
 
     ``panels``: list of dicts with ``name``, ``series`` (list of dicts with
     ``label``, ``x`` (N,), ``y`` (N,), optional ``xb``, ``lo``, ``hi`` (K,)
     for the band) and optional ``truth`` = (x, y).
     """
-    Figure, _ = _require_matplotlib()
-    n = len(panels)
-    ncols = 2 if n > 1 else 1
-    nrows = math.ceil(n / ncols)
-    fig = Figure(figsize=(11, 2.6 * nrows + 0.6), layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True)
-    for k, ax in enumerate(axes.flat):
-        if k >= n:
-            ax.set_visible(False)
-            continue
-        p = panels[k]
-        arrays = []
+    from adaptid import plot
+
+    _require_matplotlib()
+    fig, axes = plot.panel_axes(len(panels))
+    for ax, p in zip(axes, panels):
         for j, s in enumerate(p["series"]):
-            c = _COLORS[j % len(_COLORS)]
-            sl = _decimate(len(s["x"]))
+            c = plot.COLORS[j % len(plot.COLORS)]
             if s.get("xb") is not None:
-                ax.fill_between(s["xb"], s["lo"], s["hi"], color=c, alpha=0.18, lw=0,
-                                label=None)
-            ax.plot(s["x"][sl], s["y"][sl], color=c, lw=1.1, label=s["label"])
-            arrays.append(s["y"])
-        truth = p.get("truth")
-        if truth is not None:
-            sl = _decimate(len(truth[0]))
-            ax.plot(truth[0][sl], truth[1][sl], "k--", lw=1.2, label="truth")
-        for ev in events:
-            ax.axvline(ev, color="#888", lw=0.8, ls=":")
-        lim = _robust_limits(arrays, None if truth is None else truth[1])
-        if lim is not None:
-            ax.set_ylim(*lim)
-        ax.set_title(p["name"], fontsize=10, loc="left")
-        ax.grid(alpha=0.3)
-        if k >= n - ncols:
-            ax.set_xlabel(xlabel)
-    handles, labels = axes.flat[0].get_legend_handles_labels()
+                ax.fill_between(s["xb"], s["lo"], s["hi"], color=c, alpha=0.18, lw=0)
+            last = j == len(p["series"]) - 1
+            plot.tracks(s["x"], s["y"], [p["name"]], label=s["label"], color=c, xlabel=xlabel,
+                        truth=p.get("truth") if last else None, events=events if last else (),
+                        ax=[ax])
+    handles, labels = axes[0].get_legend_handles_labels()
     if handles:
         fig.legend(handles, labels, loc="outside upper center", ncol=len(labels), fontsize=9,
                    frameon=False)
@@ -259,43 +205,27 @@ def tracks_figure(panels, *, xlabel="sample", events=()):
 
 def errors_figure(rows, *, xlabel="sample"):
     """Prediction errors: ``rows`` = list of (title, [(label, x, e), ...])."""
-    Figure, _ = _require_matplotlib()
-    fig = Figure(figsize=(11, 2.4 * len(rows) + 0.4), layout="constrained")
+    from adaptid import plot
+
+    _require_matplotlib()
+    fig = plot.new_figure((11, 2.4 * len(rows) + 0.4))
     axes = fig.subplots(len(rows), 1, squeeze=False)[:, 0]
     for ax, (title, series) in zip(axes, rows):
-        arrays = []
         for j, (label, x, e) in enumerate(series):
-            sl = _decimate(len(x))
-            ax.plot(x[sl], e[sl], color=_COLORS[j % len(_COLORS)], lw=0.7, alpha=0.85, label=label)
-            arrays.append(e)
-        lim = _robust_limits(arrays)
-        if lim is not None:
-            lo, hi = lim
-            m = max(abs(lo), abs(hi))
-            ax.set_ylim(-m, m)
-        ax.set_title(title, fontsize=10, loc="left")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper right", ncol=len(series))
-        ax.set_xlabel(xlabel)
+            plot.prediction_errors(x, e, label=label, color=plot.COLORS[j % len(plot.COLORS)],
+                                   ax=ax)
+        plot.symmetric_limits(ax, [e for _, _, e in series])
+        plot.finish_errors_axes(ax, title, xlabel, len(series))
     return fig
 
 
 def cusum_figure(items, *, xlabel="sample"):
     """CUSUM panels: ``items`` = list of (title, x (m,), CusumResult)."""
-    Figure, _ = _require_matplotlib()
-    fig = Figure(figsize=(11, 2.6 * len(items) + 0.4), layout="constrained")
+    from adaptid import plot
+
+    _require_matplotlib()
+    fig = plot.new_figure((11, 2.6 * len(items) + 0.4))
     axes = fig.subplots(len(items), 1, squeeze=False)[:, 0]
     for ax, (title, x, res) in zip(axes, items):
-        sl = _decimate(len(x))
-        ax.plot(x[sl], res.statistic[sl], color=_COLORS[0], lw=1.1, label="CUSUM of recursive residuals")
-        ax.plot(x[sl], res.upper[sl], "k--", lw=1, label=f"{100 * (1 - res.alpha):g} % bounds")
-        ax.plot(x[sl], res.lower[sl], "k--", lw=1)
-        if res.first_crossing is not None:
-            ax.axvline(x[res.first_crossing], color=_COLORS[1], lw=0.9, ls=":",
-                       label="first crossing")
-        verdict = "parameters not constant (bounds crossed)" if res.crossed else "no evidence of change"
-        ax.set_title(f"{title}: {verdict}", fontsize=10, loc="left")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper left")
-        ax.set_xlabel(xlabel)
+        plot.cusum(x, res, title=title, xlabel=xlabel, ax=ax)
     return fig

@@ -99,7 +99,7 @@ class Trajectory:
             raise ValueError(f"names must have {n} entries, got {len(names)}")
         return names
 
-    def plot(self, names=None, *, fig=None, true_theta=None):
+    def plot(self, names=None, *, ax=None, true_theta=None):
         """Draw the parameter tracks (:func:`adaptid.plot.tracks`); returns the figure.
 
         One panel per parameter against ``time`` (or the sample position),
@@ -112,5 +112,10 @@ class Trajectory:
         tracks = upward("adaptid.plot").tracks  # the figure lives in layer 7
 
         x = self.time if self.time is not None else self.meta.get("index")
-        return tracks(self.theta, x=x, names=self._param_names(names), stderr=self.stderr,
-                      fig=fig, true_theta=true_theta)
+        x = np.arange(self.theta.shape[0]) if x is None else np.asarray(x)
+        truth = None
+        if true_theta is not None:
+            truth = (x[[0, -1]], np.tile(np.ravel(true_theta), (2, 1)))
+        xlabel = "time" if self.time is not None else "sample"
+        return tracks(x, self.theta, self._param_names(names), band=self.stderr, truth=truth,
+                      xlabel=xlabel, ax=ax)

@@ -2,6 +2,7 @@ r"""The same identification for every device of a fleet, as one Dask computation
 
 from __future__ import annotations
 
+import numbers
 import os
 import threading
 import uuid
@@ -9,15 +10,10 @@ import uuid
 import numpy as np
 
 from .._validation import check_choice, check_int, check_scalar, param_error
+from ..estimators import METHODS
 
 __all__ = ["identify"]
 
-_METHODS = ("rls", "window", "kalman")
-_OPTIONS = {
-    "rls": ("forgetting", "theta0", "P0"),
-    "window": ("window", "forgetting", "theta0", "P0"),
-    "kalman": ("process_cov", "noise_var", "theta0", "P0"),
-}
 _CHANGE_TESTS = ("a-priori", "recursive")
 _STAT_COLUMNS = ("n_samples", "n_skipped", "sigma2", "rms", "change", "change_stat",
                  "change_at")
@@ -35,22 +31,25 @@ def _need(module):
 
 
 def _make_estimator(method, n, nan_policy, options):
-    """The prototype estimator of every group (validates the options early)."""
-    from ..estimators import RLS, KalmanRLS, SlidingWindowRLS
-    allowed = _OPTIONS[method]
-    for key in options:
-        if key not in allowed:
-            raise param_error(key, f"an option of method={method!r} "
-                              f"({', '.join(allowed)})", "<an unknown option>", exc=TypeError)
-    if method == "rls":
-        return RLS(n, nan_policy=nan_policy, **options)
-    if method == "window":
-        if "window" not in options:
-            raise param_error("window", "given for method='window'", "<None>", exc=TypeError)
-        return SlidingWindowRLS(n, nan_policy=nan_policy, **options)
-    if "process_cov" not in options:
-        raise param_error("process_cov", "given for method='kalman'", "<None>", exc=TypeError)
-    return KalmanRLS(n, nan_policy=nan_policy, **options)
+    """The prototype estimator of every group, from :func:`adaptid.estimator`."""
+    from ..estimators import estimator
+    if "n_outputs" in options:
+        raise param_error("n_outputs", "not given (the fleet identifies single-output "
+                          "models)", options["n_outputs"], exc=TypeError)
+    return estimator(method, n, nan_policy=nan_policy, **options)
+
+
+def _constant_forgetting(est):
+    """The estimator's constant λ (1 for Kalman and for a forgetting strategy).
+
+    A strategy's λₖ are not returned by ``run_segments``, so its factors are
+    taken as 1, as :func:`adaptid.recursive_fit_stats` does without
+    ``forgetting=``.
+    """
+    lam = getattr(est, "forgetting", None)
+    if isinstance(lam, numbers.Real) and not isinstance(lam, bool):
+        return float(lam)
+    return 1.0
 
 
 def _bde_a(alpha):
@@ -86,14 +85,67 @@ def _sort_order(codes, t, order):
     return np.lexsort(keys)
 
 
-def _column(part, name, idx, out=None):
-    col = part[name].to_numpy()
-    if idx is not None:
-        col = col[idx]
-    if out is None:
-        return np.ascontiguousarray(col, dtype=np.float64)
-    out[...] = col
-    return out
+def _float_column(part, name, arg):
+    """Column ``name`` as float64 (N,): any numeric or bool dtype, pandas nullable ones
+    (``pd.NA`` → NaN) and read-only arrays; anything else is refused naming the column."""
+    import pandas as pd
+    s = part[name]
+    dt = s.dtype
+    if isinstance(dt, np.dtype) and dt.kind in "fiub":
+        a = s.to_numpy()
+        return a if dt == np.float64 else a.astype(np.float64)
+    if not isinstance(dt, np.dtype) and (pd.api.types.is_numeric_dtype(dt)
+                                         or pd.api.types.is_bool_dtype(dt)):
+        return s.to_numpy(dtype=np.float64, na_value=np.nan)
+    raise param_error(arg, "a numeric column", f"<column {name!r} of dtype {dt}>")
+
+
+def _readonly(a):
+    """A read-only view (one compiled signature for a tuple of columns of mixed origin)."""
+    v = a.view()
+    v.flags.writeable = False
+    return v
+
+
+def _time_key(part, time, group, nan_policy):
+    """The ``time`` column as a sortable numeric key, and its missing rows (or None).
+
+    Numbers stay as they are (unsigned as int64 or float64); datetime64 (naive,
+    or tz-aware: converted to UTC) and timedelta become int64 nanoseconds. A
+    missing time (NaN, NaT, ``pd.NA``) follows ``nan_policy``: "raise" names
+    its group, "skip" sorts the row last in its group and skips the sample.
+    Strings and other dtypes are refused naming the column.
+    """
+    import pandas as pd
+    if time is None:
+        return None, None
+    s = part[time]
+    dt = s.dtype
+    if pd.api.types.is_datetime64_any_dtype(dt) or pd.api.types.is_timedelta64_dtype(dt):
+        vals = s.to_numpy(dtype="timedelta64[ns]" if pd.api.types.is_timedelta64_dtype(dt)
+                          else "datetime64[ns]")
+        missing = np.isnat(vals)
+        key = vals.view(np.int64)
+        fill = np.iinfo(np.int64).max
+    elif pd.api.types.is_bool_dtype(dt) or not pd.api.types.is_numeric_dtype(dt):
+        raise param_error("time", "a numeric, datetime64 or timedelta64 column",
+                          f"<column {time!r} of dtype {dt}>")
+    else:
+        key = _float_column(part, time, "time") if not (
+            isinstance(dt, np.dtype) and dt.kind in "iu") else s.to_numpy()
+        if key.dtype.kind == "u":
+            key = key.astype(np.int64 if key.dtype.itemsize < 8 else np.float64)
+        missing = np.isnan(key) if key.dtype.kind == "f" else None
+        fill = np.inf
+    if missing is None or not missing.any():
+        return key, None
+    if nan_policy == "raise":
+        g = _group_values(part, group)[int(np.argmax(missing))]
+        raise param_error("time", "free of NaN and NaT with nan_policy='raise'",
+                          f"<a missing time in group {_label(g)}>")
+    key = key.copy()
+    key[missing] = fill
+    return key, missing
 
 
 def _label(value) -> str:
@@ -101,7 +153,7 @@ def _label(value) -> str:
     return repr(value.item() if isinstance(value, np.generic) else value)
 
 
-def _layout(part, group, time, order_col):
+def _layout(part, group, t, order_col):
     """Row order and segments of a partition: (idx or None, offsets, labels, sorted time).
 
     Rows are ordered stably by (group, time, stored order); ``idx`` is None
@@ -113,10 +165,7 @@ def _layout(part, group, time, order_col):
     from ._kernels import scan_runs
     gv = _group_values(part, group)
     N = gv.shape[0]
-    t = part[time].to_numpy() if time is not None else None
-    tk = None
-    if t is not None and t.dtype.kind in "iufM":
-        tk = t.view(np.int64) if t.dtype.kind == "M" else t
+    tk = t if t is not None and t.dtype.kind in "if" else None
     if order_col is None and gv.dtype.kind in "iufM" and (t is None or tk is not None):
         gk = gv.view(np.int64) if gv.dtype.kind == "M" else gv
         starts = np.empty(N + 1, dtype=np.int64)
@@ -153,7 +202,10 @@ def _layout(part, group, time, order_col):
 def _gather(part, names, idx):
     """Columns ``names`` of ``part`` as C-ordered float64 rows (N, n), in row order idx."""
     from ._kernels import gather_columns
-    cols = tuple(np.ascontiguousarray(part[c].to_numpy(), dtype=np.float64) for c in names)
+    cols = [np.ascontiguousarray(_float_column(part, c, "phi")) for c in names]
+    if not all(c.flags.writeable for c in cols):  # one kind of array in the tuple
+        cols = [_readonly(c) for c in cols]
+    cols = tuple(cols)
     out = np.empty((len(part), len(names)))
     use = idx is not None
     gather_columns(cols, idx if use else np.empty(1, dtype=np.int64), use, out)
@@ -162,28 +214,14 @@ def _gather(part, names, idx):
 
 def _identify_partition(part, *, group, y, phi, model, time, est, names, alpha_a,
                         change_test, burn_in, tracks, order_col):
-    import pandas as pd
-    n = len(names)
-    idx, offsets, uniq, t = _layout(part, group, time, order_col)
-    G = len(uniq)
-    pos = None
-    if model is None:
-        Phi = _gather(part, phi, idx)
-        Y = part[y].to_numpy()
-        Y = np.ascontiguousarray(Y if idx is None else Y[idx], dtype=np.float64)
-        row_t = t
-    else:
-        lengths = np.diff(offsets)
-        Phi, Y, pos, row_t, lengths = _model_rows(part, idx, lengths, uniq, t, model, names)
-        offsets = np.zeros(G + 1, dtype=np.int64)
-        np.cumsum(lengths, out=offsets[1:])
-    lengths = np.diff(offsets)
-    short = np.flatnonzero(lengths < n)
-    if short.size:
-        g = short[0]
-        raise param_error("data", f"at least n_params={n} samples in every group",
-                          f"<{int(lengths[g])} samples in group {_label(uniq[g])}>")
-
+    """One partition: order the rows, build (Φ, y), run the segments, one row per group."""
+    t_key, t_missing = _time_key(part, time, group, est.nan_policy)
+    if t_missing is not None and model is not None:  # the model sees only timed rows
+        part, t_key, t_missing = part[~t_missing], t_key[~t_missing], None
+    idx, offsets, uniq, t = _layout(part, group, t_key, order_col)
+    Phi, Y, pos, row_t, offsets = _regression_rows(part, idx, offsets, uniq, t, t_missing,
+                                                   y=y, phi=phi, model=model, names=names)
+    _check_lengths(offsets, uniq, len(names))
     _limit_threads()
     with _KERNEL_LOCK:
         try:
@@ -192,9 +230,45 @@ def _identify_partition(part, *, group, y, phi, model, time, est, names, alpha_a
             _raise_nonfinite(Phi, Y, offsets, uniq)
             raise
         stats = _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in)
+    out = _result_frame(res, stats, names, uniq, group, offsets, row_t, pos)
+    if tracks is not None:
+        lengths = np.diff(offsets)
+        if pos is None:
+            pos = np.arange(len(Y)) - np.repeat(offsets[:-1], lengths)
+        _write_tracks(tracks, group, uniq, lengths, res, names, pos, row_t, time)
+    return out
 
-    theta = res.theta
-    cols = {c: theta[:, j] for j, c in enumerate(names)}
+
+def _regression_rows(part, idx, offsets, uniq, t, t_missing, *, y, phi, model, names):
+    """(Φ, y, positions or None, time of each row, offsets) in segment order."""
+    if model is not None:
+        lengths = np.diff(offsets)
+        Phi, Y, pos, row_t, lengths = _model_rows(part, idx, lengths, uniq, t, model, names)
+        offsets = np.zeros(len(uniq) + 1, dtype=np.int64)
+        np.cumsum(lengths, out=offsets[1:])
+        return Phi, Y, pos, row_t, offsets
+    Phi = _gather(part, phi, idx)
+    Y = _float_column(part, y, "y")
+    Y = np.array(Y if idx is None else Y[idx], dtype=np.float64, order="C")  # own, writable
+    if t_missing is not None:  # a missing time: the sample is skipped (or refused) as NaN
+        Y[t_missing if idx is None else t_missing[idx]] = np.nan
+    return Phi, Y, None, t, offsets
+
+
+def _check_lengths(offsets, uniq, n):
+    lengths = np.diff(offsets)
+    short = np.flatnonzero(lengths < n)
+    if short.size:
+        g = short[0]
+        raise param_error("data", f"at least n_params={n} samples in every group",
+                          f"<{int(lengths[g])} samples in group {_label(uniq[g])}>")
+
+
+def _result_frame(res, stats, names, uniq, group, offsets, row_t, pos):
+    """The per-group table: θ, standard errors, counts, σ̂², RMS and the change flag."""
+    import pandas as pd
+    G = len(uniq)
+    cols = {c: res.theta[:, j] for j, c in enumerate(names)}
     cols.update({f"stderr_{c}": stats["stderr"][:, j] for j, c in enumerate(names)})
     first = stats["first"]
     has = first >= 0
@@ -209,12 +283,7 @@ def _identify_partition(part, *, group, y, phi, model, time, est, names, alpha_a
             at[has] = rows - offsets[:-1][has]
     cols.update(n_samples=res.n_samples, n_skipped=res.n_skipped, sigma2=stats["sigma2"],
                 rms=stats["rms"], change=has, change_stat=stats["ratio"], change_at=at)
-    out = pd.DataFrame(cols, index=pd.Index(uniq, name=group))
-    if tracks is not None:
-        if pos is None:
-            pos = np.arange(len(Y)) - np.repeat(offsets[:-1], lengths)
-        _write_tracks(tracks, group, uniq, lengths, res, names, pos, row_t, time)
-    return out
+    return pd.DataFrame(cols, index=pd.Index(uniq, name=group))
 
 
 def _raise_nonfinite(Phi, Y, offsets, uniq):
@@ -280,17 +349,18 @@ def _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in):
     n = Phi.shape[1]
     used = ~res.skipped
     window = int(getattr(est, "window", 0) or 0)
-    ss = np.empty(G)
+    ss, wss, neff = np.empty(G), np.empty(G), np.empty(G)
     count = np.empty(G, dtype=np.int64)
-    residual_ss_kernel(Phi, Y, used, offsets, np.ascontiguousarray(res.theta), window, ss,
-                       count)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dof = count - n
-        sigma2 = np.where(dof > 0, ss / np.maximum(dof, 1), np.nan)
+    residual_ss_kernel(Phi, Y, used, offsets, np.ascontiguousarray(res.theta), window,
+                       _constant_forgetting(est), ss, wss, neff, count)
+    # the rule of adaptid.recursive_fit_stats, per segment
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        dof = neff - n
+        sigma2 = np.where(dof > 0, wss / np.where(dof > 0, dof, 1.0), np.nan)
         rms = np.sqrt(ss / count)
-    noise_var = float(getattr(est, "noise_var", 1.0))
-    diagP = np.diagonal(res.P, axis1=1, axis2=2)
-    stderr = np.sqrt(np.maximum(diagP, 0.0) * (sigma2 / noise_var)[:, None])
+        noise_var = float(getattr(est, "noise_var", 1.0))
+        diagP = np.clip(np.diagonal(res.P, axis1=1, axis2=2), 0.0, None)
+        stderr = np.sqrt(diagP * (sigma2 / noise_var)[:, None])
 
     ratio = np.empty(G)
     first = np.empty(G, dtype=np.int64)
@@ -502,23 +572,26 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
 
     Notes
     -----
-    **Standard errors.** With :math:`\hat\theta_N` the final estimate,
+    **Standard errors.** The rule of :func:`adaptid.recursive_fit_stats`,
+    per group: with :math:`\hat\theta_N` the final estimate, :math:`r_k =
+    y_k - \varphi_k^T\hat\theta_N` and :math:`c_k` the factor with which
+    sample k enters the estimator's cost (:math:`\lambda^{m_k}`, m_k the
+    number of used samples after k, for ``"rls"`` and ``"window"`` —
+    the latter only over its last ``window`` used samples, 0 before —
+    and 1 for ``"kalman"``),
 
     .. math::
 
-        \hat\sigma^2 = \frac{1}{m - n}\sum_{k\in S}(y_k - \varphi_k^T\hat\theta_N)^2,
+        \hat\sigma^2 = \frac{\sum_k c_k r_k^2}{\sum_k c_k - n},
         \qquad \operatorname{stderr}_i = \sqrt{\hat\sigma^2 P_{ii}/R_2},
 
-    over the set S of the last m used samples the estimate rests on (all of
-    them for ``"rls"`` and ``"kalman"``, the last ``window`` for
-    ``"window"``); ``sigma2`` is :math:`\hat\sigma^2` and ``rms``
-    :math:`\sqrt{\sum_S r_k^2/m}`. :math:`R_2` is ``noise_var`` for
-    ``"kalman"`` (whose P is an absolute covariance when R₁, R₂ are right)
-    and 1 otherwise (P is then the unscaled inverse information, e.g.
-    :math:`(\sum_k\varphi_k\varphi_k^T + P_0^{-1})^{-1}` for RLS with λ = 1,
-    so that with a diffuse prior these are the ordinary least-squares
-    standard errors, as :func:`adaptid.lstsq`). (The sum of squared a-priori
-    errors is not used: it includes the start-up transient from θ₀.)
+    ``sigma2`` is :math:`\hat\sigma^2` (NaN when :math:`\sum_k c_k \le n`)
+    and ``rms`` :math:`\sqrt{\sum_S r_k^2/m}` over the m samples S with
+    :math:`c_k > 0`. :math:`R_2` is ``noise_var`` for ``"kalman"`` and 1
+    otherwise; with λ = 1 and a diffuse prior these are the ordinary
+    least-squares standard errors of :func:`adaptid.lstsq`. A forgetting
+    strategy's λₖ are not available per segment: its factors are taken
+    as 1.
 
     **Change flag.** The CUSUM test of Brown, Durbin & Evans (1975, §2.3),
     :func:`adaptid.diagnostics.cusum` with ``scale="ols"``: on m residuals
@@ -579,123 +652,134 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     >>> res.shape[0]
     20
     """
-    import pandas as pd
-    dask = _need("dask")
-
-    method = check_choice(method, "method", _METHODS)
+    _need("dask")
+    method = check_choice(method, "method", METHODS)
     check_choice(nan_policy, "nan_policy", ("raise", "skip"))
     change_test = check_choice(change_test, "change_test", _CHANGE_TESTS)
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
-    if (phi is None) == (model is None):
-        raise param_error("phi", "given, or model given (exactly one of them)",
-                          "<both>" if phi is not None else "<neither>", exc=TypeError)
     kind, frame = _as_frame(data)
-    _check_column(frame, group, "group", allow_index=kind == "dask")
-    if time is not None:
-        _check_column(frame, time, "time")
-    if model is None:
-        _check_column(frame, y, "y")
-        if isinstance(phi, str):
-            phi = [phi]
-        phi = list(phi)
-        if not phi:
-            raise param_error("phi", "a non-empty list of column names", phi)
-        for c in phi:
-            _check_column(frame, c, "phi")
-        names = tuple(phi)
-    else:
-        if not callable(model):
-            raise param_error("model", "a callable group_df -> Regression", model,
-                              exc=TypeError)
-        names = getattr(model, "names", None)
-        names = tuple(names) if names is not None else None
+    phi, names = _check_columns(frame, kind, group=group, y=y, phi=phi, model=model, time=time)
     if npartitions is not None:
         npartitions = check_int(npartitions, "npartitions", low=1)
-
-    own_cluster = None
-    if isinstance(client, str):
-        distributed = _need("distributed")
-        if client == "local":
-            ncores = os.cpu_count() or 1
-            own_cluster = distributed.LocalCluster(n_workers=ncores, threads_per_worker=1,
-                                                   processes=True)
-            client = distributed.Client(own_cluster)
-        else:
-            client = distributed.Client(client)
-            own_cluster = client  # a connection we opened: close it afterwards
-    elif client is not None and not hasattr(client, "compute"):
-        raise param_error("client", "None, 'local', a scheduler address or a "
-                          "distributed.Client", client, exc=TypeError)
+    if burn_in is not None:
+        burn_in = check_int(burn_in, "burn_in", low=0)
+    client, own_cluster = _open_client(client)
     try:
-        dd = _need("dask.dataframe")
-        order_col = None
-        if kind == "pandas":
-            frame = frame.copy(deep=False)
-            frame.attrs = {}  # pandas deep-copies attrs on every slice: not needed here
-            keep = [c for c in ([group, time, y] + list(phi)) if c is not None] \
-                if model is None else list(frame.columns)
-            frame = frame[list(dict.fromkeys(keep))] if model is None else frame
-            parts = _pandas_partitions(frame, group, npartitions or _default_partitions(client))
-            ddf = dd.from_delayed([dask.delayed(p, pure=False) for p in parts],
-                                  meta=frame.iloc[:0], verify_meta=False)
-            sample = parts[0] if parts else frame.iloc[:0]
-        else:
-            ddf = frame
-            if model is None:
-                keep = [c for c in ([group, time, y] + list(phi))
-                        if c is not None and c in ddf.columns]
-                ddf = ddf[list(dict.fromkeys(keep))]
-            indexed = group not in ddf.columns and ddf.index.name == group \
-                and ddf.known_divisions
-            if not indexed:
-                if group not in ddf.columns:
-                    ddf = ddf.reset_index()
-                order_col = _ORDER
-                ddf = ddf.map_partitions(_add_order, meta=ddf._meta.assign(
-                    **{_ORDER: np.int64(0)}))
-                # in-process: a task shuffle (p2p needs the distributed scheduler)
-                how = {} if client is not None else {"shuffle_method": "tasks"}
-                ddf = ddf.shuffle(on=group, npartitions=npartitions or ddf.npartitions, **how)
-            sample = None
-
-        if names is None:  # learn the model's regressor names on one group
-            probe = sample if sample is not None else ddf.partitions[0].compute()
-            if len(probe) == 0:
-                raise param_error("data", "non-empty", "<no rows>")
-            gv = _group_values(probe, group)
-            first = probe[gv == gv[0]]
-            if time is not None:
-                first = first.sort_values(time, kind="stable")
-            names = tuple(model(first).names)
+        ddf, sample, order_col = _partitioned(kind, frame, group=group, y=y, phi=phi,
+                                              model=model, time=time, client=client,
+                                              npartitions=npartitions)
+        if names is None:
+            names = _model_names(ddf, sample, model, group, time)
         bad = [c for c in names if c in _STAT_COLUMNS or c.startswith("stderr_")]
         if bad:
             raise param_error("phi", "names that do not collide with the result columns "
                               f"{_STAT_COLUMNS}", bad[0])
-        n = len(names)
-        est = _make_estimator(method, n, nan_policy, estimator_options)
-        if burn_in is not None:
-            burn_in = check_int(burn_in, "burn_in", low=0)
+        est = _make_estimator(method, len(names), nan_policy, estimator_options)
         if tracks is not None:
             os.makedirs(os.fspath(tracks), exist_ok=True)
-
-        meta = _result_meta(names, group, frame, kind)
         kwargs = dict(group=group, y=y, phi=phi, model=model, time=time, est=est,
                       names=names, alpha_a=_bde_a(alpha), change_test=change_test,
                       burn_in=burn_in, tracks=tracks, order_col=order_col)
-        result = ddf.map_partitions(_identify_partition, meta=meta, enforce_metadata=False,
-                                    **kwargs)
+        result = ddf.map_partitions(_identify_partition, enforce_metadata=False,
+                                    meta=_result_meta(names, group, frame, kind), **kwargs)
         out = _compute(result, client, progress)
     finally:
-        if own_cluster is not None:
-            own_cluster.close()
-            if client is not own_cluster:
-                client.close()
+        _close_client(client, own_cluster)
     try:
         out = out.sort_index(kind="stable")
     except TypeError:  # pragma: no cover - unorderable group labels
         pass
     out.index.name = group
     return out
+
+
+# ---------------------------------------------------------------- the steps
+def _check_columns(frame, kind, *, group, y, phi, model, time):
+    """Validate the column arguments; returns (phi as a list or None, names or None)."""
+    if (phi is None) == (model is None):
+        raise param_error("phi", "given, or model given (exactly one of them)",
+                          "<both>" if phi is not None else "<neither>", exc=TypeError)
+    _check_column(frame, group, "group", allow_index=kind == "dask")
+    if time is not None:
+        _check_column(frame, time, "time")
+    if model is not None:
+        if not callable(model):
+            raise param_error("model", "a callable group_df -> Regression", model,
+                              exc=TypeError)
+        names = getattr(model, "names", None)
+        return None, (tuple(names) if names is not None else None)
+    _check_column(frame, y, "y")
+    phi = [phi] if isinstance(phi, str) else list(phi)
+    if not phi:
+        raise param_error("phi", "a non-empty list of column names", phi)
+    for c in phi:
+        _check_column(frame, c, "phi")
+    return phi, tuple(phi)
+
+
+def _open_client(client):
+    """(client, what to close afterwards): None, "local", an address or a Client."""
+    if isinstance(client, str):
+        distributed = _need("distributed")
+        if client == "local":
+            ncores = os.cpu_count() or 1
+            cluster = distributed.LocalCluster(n_workers=ncores, threads_per_worker=1,
+                                               processes=True)
+            return distributed.Client(cluster), cluster
+        client = distributed.Client(client)
+        return client, client  # a connection we opened: close it afterwards
+    if client is not None and not hasattr(client, "compute"):
+        raise param_error("client", "None, 'local', a scheduler address or a "
+                          "distributed.Client", client, exc=TypeError)
+    return client, None
+
+
+def _close_client(client, own):
+    if own is not None:
+        own.close()
+        if client is not own:
+            client.close()
+
+
+def _partitioned(kind, frame, *, group, y, phi, model, time, client, npartitions):
+    """(dask frame whose partitions hold whole groups, a pandas sample or None, order column)."""
+    dask = _need("dask")
+    dd = _need("dask.dataframe")
+    keep = None if model is not None else list(dict.fromkeys(
+        c for c in [group, time, y] + list(phi) if c is not None))
+    if kind == "pandas":
+        frame = frame.copy(deep=False)
+        frame.attrs = {}  # pandas deep-copies attrs on every slice: not needed here
+        if keep is not None:
+            frame = frame[keep]
+        parts = _pandas_partitions(frame, group, npartitions or _default_partitions(client))
+        ddf = dd.from_delayed([dask.delayed(p, pure=False) for p in parts],
+                              meta=frame.iloc[:0], verify_meta=False)
+        return ddf, (parts[0] if parts else frame.iloc[:0]), None
+    ddf = frame
+    if keep is not None:
+        ddf = ddf[[c for c in keep if c in ddf.columns]]
+    if group not in ddf.columns and ddf.index.name == group and ddf.known_divisions:
+        return ddf, None, None  # indexed by group with known divisions: no shuffle
+    if group not in ddf.columns:
+        ddf = ddf.reset_index()
+    ddf = ddf.map_partitions(_add_order, meta=ddf._meta.assign(**{_ORDER: np.int64(0)}))
+    # in-process: a task shuffle (p2p needs the distributed scheduler)
+    how = {} if client is not None else {"shuffle_method": "tasks"}
+    ddf = ddf.shuffle(on=group, npartitions=npartitions or ddf.npartitions, **how)
+    return ddf, None, _ORDER
+
+
+def _model_names(ddf, sample, model, group, time):
+    """Learn the model's regressor names on the first group of the first partition."""
+    probe = sample if sample is not None else ddf.partitions[0].compute()
+    if len(probe) == 0:
+        raise param_error("data", "non-empty", "<no rows>")
+    gv = _group_values(probe, group)
+    first = probe[gv == gv[0]]
+    if time is not None:
+        first = first.sort_values(time, kind="stable")
+    return tuple(model(first).names)
 
 
 def _result_meta(names, group, frame, kind):

@@ -14,11 +14,15 @@ from ..diagnostics._kernels import recursive_residuals_kernel
 
 
 @njit(**NJIT_PARALLEL)
-def residual_ss_kernel(Phi, y, used, offsets, theta, window, ss, count):  # pragma: no cover
-    """Sum of squared a-posteriori residuals y_k − φ_kᵀθ_g of each segment.
+def residual_ss_kernel(Phi, y, used, offsets, theta, window, lam, ss, wss, neff,
+                       count):  # pragma: no cover
+    """Sums of the a-posteriori residuals r_k = y_k − φ_kᵀθ_g of each segment.
 
-    Only used samples count; with ``window > 0`` only the last ``window`` used
-    samples of the segment. Fills ``ss`` (G,) and ``count`` (G,).
+    Walking back from the segment's last sample with c = 1 and c ← λc after
+    every used sample (c_k = λ^(number of used samples after k), the factor
+    of :func:`adaptid.estimators.sample_factors`); only used samples count
+    and, with ``window > 0``, only the last ``window`` of them. Fills
+    ``ss`` = Σ r², ``wss`` = Σ c r², ``neff`` = Σ c and ``count`` (all (G,)).
     """
     G = offsets.size - 1
     n = Phi.shape[1]
@@ -26,7 +30,10 @@ def residual_ss_kernel(Phi, y, used, offsets, theta, window, ss, count):  # prag
         a = offsets[g]
         b = offsets[g + 1]
         s = 0.0
-        c = 0
+        sw = 0.0
+        ce = 0.0
+        c = 1.0
+        m = 0
         k = b - 1
         while k >= a:
             if used[k]:
@@ -34,12 +41,17 @@ def residual_ss_kernel(Phi, y, used, offsets, theta, window, ss, count):  # prag
                 for j in range(n):
                     r -= Phi[k, j] * theta[g, j]
                 s += r * r
-                c += 1
-                if window > 0 and c >= window:
+                sw += c * r * r
+                ce += c
+                c *= lam
+                m += 1
+                if window > 0 and m >= window:
                     break
             k -= 1
         ss[g] = s
-        count[g] = c
+        wss[g] = sw
+        neff[g] = ce
+        count[g] = m
 
 
 @njit(**NJIT_PARALLEL)

@@ -1,17 +1,22 @@
 """The ``adaptid fleet`` command's work, independent of the CLI framework.
 
 The CLI registers :func:`fleet_command` (parsing of arguments only) and
-prints with :func:`summary_text` / :func:`write_result`.
+prints with :func:`summary_text` / :func:`write_result`. A single data file
+(CSV, Parquet, ``.npz``) is read by :mod:`adaptid.io`, the reader of
+``adaptid fit``; a folder or glob of Parquet files goes to Dask. The fleet
+itself (layer 8) is imported only when the command runs.
 """
 
 from __future__ import annotations
 
+import glob as _glob
 import importlib
 import os
 
 from .._validation import param_error
+from ..io import SUFFIXES, check_writable, read_frame, write_table
 
-__all__ = ["fleet_command", "resolve_model", "summary_text", "write_result"]
+__all__ = ["fleet_command", "resolve_model", "summary_text", "write_result", "check_outputs"]
 
 
 def _split_names(value):
@@ -78,14 +83,11 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
     pandas.DataFrame
         One row per device (see :func:`adaptid.fleet.identify`).
     """
-    from ._identify import identify
+    from adaptid.fleet import identify  # layer 8, on demand
     options = {k: v for k, v in dict(forgetting=forgetting, window=window,
                                      process_cov=process_cov, noise_var=noise_var,
                                      P0=P0).items() if v is not None}
-    source = data
-    if isinstance(data, (str, os.PathLike)) and os.fspath(data).lower().endswith(".csv"):
-        import pandas as pd
-        source = pd.read_csv(data)
+    source = read_frame(data) if is_single_file(data) else data
     return identify(source, group=group, y=y, phi=_split_names(phi),
                     model=resolve_model(model), method=method, time=time,
                     client=scheduler or None, tracks=tracks, nan_policy=nan_policy,
@@ -113,15 +115,49 @@ def summary_text(result, *, max_rows=10) -> str:
     return "\n".join(lines)
 
 
+def is_single_file(data) -> bool:
+    """True for one CSV / Parquet / ``.npz`` file (read by :mod:`adaptid.io`)."""
+    if not isinstance(data, (str, os.PathLike)):
+        return False
+    p = os.fspath(data)
+    if os.path.isdir(p) or _glob.has_magic(p):
+        return False
+    return p.lower().endswith(tuple(SUFFIXES))
+
+
+def input_files(data) -> list:
+    """The existing files named by ``data`` (a file, a folder's files or a glob's)."""
+    p = os.fspath(data)
+    if os.path.isdir(p):
+        return [os.path.join(r, f) for r, _, fs in os.walk(p) for f in fs]
+    return [q for q in (_glob.glob(p) if _glob.has_magic(p) else [p]) if os.path.exists(q)]
+
+
+def check_outputs(data, output=None, tracks=None) -> None:
+    """Before any computation: outputs writable, of a known type, and not an input."""
+    from ._errors import CLIError
+    inputs = input_files(data)
+    if output is not None:
+        check_writable(output, what="--output")
+        low = os.fspath(output).lower()
+        if not low.endswith((".csv", ".parquet", ".pq", ".json")):
+            raise CLIError(f"--output {output}: the name must end in .csv, .parquet or .json")
+        for q in inputs:
+            if os.path.exists(output) and os.path.samefile(output, q):
+                raise CLIError(f"--output {output} is the input file {q}; choose another name")
+    if tracks is not None:
+        t = os.fspath(tracks)
+        if os.path.exists(t) and not os.path.isdir(t):
+            raise CLIError(f"--tracks {t}: exists and is not a folder")
+        roots = inputs + ([os.fspath(data)] if os.path.isdir(os.fspath(data)) else [])
+        for q in roots:
+            if os.path.exists(t) and os.path.samefile(t, q):
+                raise CLIError(f"--tracks {t} is the input {q}; choose another folder")
+
+
 def write_result(result, path) -> None:
-    """Write the per-device table to ``path`` (.csv, .parquet or .json by extension)."""
+    """Write the per-device table to ``path`` (.csv, .parquet or .json by extension), atomically."""
     p = os.fspath(path)
-    low = p.lower()
-    if low.endswith(".csv"):
-        result.to_csv(p)
-    elif low.endswith((".parquet", ".pq")):
-        result.to_parquet(p)
-    elif low.endswith(".json"):
-        result.reset_index().to_json(p, orient="records", indent=1)
-    else:
+    if not p.lower().endswith((".csv", ".parquet", ".pq", ".json")):
         raise param_error("output", "a path ending in .csv, .parquet or .json", p)
+    write_table(result, p)
