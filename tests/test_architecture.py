@@ -173,3 +173,29 @@ def test_the_checker_sees_an_upward_import(bad_import, layer_of):
     node = ast.parse(bad_import).body[0]
     deps = _resolve(layer_of, MODULES[layer_of], node)
     assert deps and all(_layer(d) > _layer(layer_of) for d in deps)
+
+
+_COMPILERS = {"njit", "jit", "vectorize", "guvectorize", "cfunc", "stencil", "prange"}
+
+
+def test_compiled_code_lives_only_under_kernels():
+    """Issue 13, point 5: every numba-compiled function is in src/adaptid/_kernels/."""
+    bad = []
+    for module, path in MODULES.items():
+        if _component(module) == "_kernels":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            # a compiling decorator imported (from numba import njit) or used (@numba.njit)
+            if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "numba":
+                if any(a.name in _COMPILERS for a in node.names):
+                    bad.append(module)
+            if isinstance(node, ast.Attribute) and node.attr in _COMPILERS and \
+                    getattr(node.value, "id", None) == "numba":
+                bad.append(module)
+    assert not bad, f"modules outside _kernels/ that use numba: {sorted(set(bad))}"
+
+
+def test_no_kernel_file_over_400_lines():
+    long = {p.name: n for p in (SRC / "_kernels").glob("*.py")
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > 400}
+    assert not long, long

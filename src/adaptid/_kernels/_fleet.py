@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit, prange
 
 from .._config import NJIT_PARALLEL
-from ..diagnostics._kernels import recursive_residuals_kernel
+from ._residuals import recursive_residuals_kernel
 
 
 @njit(**NJIT_PARALLEL)
