@@ -395,7 +395,7 @@ def environment():
         "gcc": gcc_version(), "c_flags": " ".join(C_FLAGS),
         "versions": versions,
         "adaptid_path": str(Path(__import__("adaptid").__file__).parent),
-        "adaptid_kernel_dir": os.environ.get("ADAPTID_KERNEL_DIR"),
+        "numba_cache_dir": os.environ.get("NUMBA_CACHE_DIR"),
     }
 
 

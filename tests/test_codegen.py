@@ -1,7 +1,7 @@
 """Generated C (adaptid.codegen.to_c) compiled and run against adaptid's own ``run``.
 
 The oracle is the compiled Python estimator (``run``, numba kernels of
-``adaptid._kernels._ud``), which is tested elsewhere against batch solves;
+``adaptid._kernels``), which is tested elsewhere against batch solves;
 here the C code, written independently from templates, is compiled with the
 host gcc, the ARM Linux cross compiler (run under qemu-arm) and the
 Cortex-M4F bare-metal compiler. A missing toolchain is a FAILURE, not a skip:

@@ -408,5 +408,5 @@ def test_public_names_do_not_leak():
                               "lq_control", "lq_estimate", "recursive_residuals", "cusum",
                               "cusum_squares"}
     public = {k for k in dir(a) if not k.startswith("_")}
-    assert public <= set(a.__all__) | {"forgetting", "constrained", "continuous", "models", "estimators", "plot",
+    assert public <= set(a.__all__) | {"forgetting", "constrained", "continuous", "models", "estimators", "plot", "io",
                                        "diagnostics", "datasets", "fleet", "sklearn"}

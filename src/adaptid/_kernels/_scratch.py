@@ -2,7 +2,7 @@
 
 ``scratch(n)`` / ``scratch2(n)`` behave like ``np.empty(n)`` /
 ``np.empty((n, n))``. When ``n`` is a compile-time constant (the kernels
-specialised per number of parameters, see :mod:`adaptid._kernels`) the
+called with tuple size tags, see :mod:`adaptid._kernels._dims`) the
 array is an ``alloca`` in the kernel's entry block instead of a heap
 allocation. LLVM then knows that it cannot alias the caller's arrays
 (Φ, y, the trajectory), so the unrolled update keeps the factor in
@@ -13,9 +13,8 @@ known only at run time both fall back to ``np.empty``.
 The arrays live as long as the kernel's frame: they must not be returned
 or stored. Their contents start undefined, as with ``np.empty``.
 
-numba's on-disk cache does not notice edits to this file. The specialised
-copies carry its hash in their names, so they are rebuilt. The generic
-kernels in ``_ud.py`` are not: touch ``_ud.py`` after editing this file.
+The sizes come from the tags of :mod:`._dims`: a tuple tag makes n a
+compile-time constant (stack arrays), an int tag a run-time value (heap).
 """
 
 import numba

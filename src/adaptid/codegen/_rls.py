@@ -2,7 +2,7 @@
 ConstantTrace, Variable), SlidingWindowRLS and KalmanRLS.
 
 Each mirrors, operation for operation, the compiled stream of
-:mod:`adaptid._kernels._ud` that the Python estimator's ``run`` uses
+:mod:`adaptid._kernels` (``_bierman``, ``_rls``, ``_strategy``, ``_window``, ``_kalman``) that the Python estimator's ``run`` uses
 (``_rls_stream``, ``_strategy_step``, ``_window_stream_flat``,
 ``_kalman_stream``), so that the C code continues the Python estimator's
 state with the same rounding (see docs/embedded.md on FMA contraction).
