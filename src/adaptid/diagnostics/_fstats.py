@@ -169,8 +169,8 @@ def fstats(X, y, *, trim=0.15):
     >>> x = rng.standard_normal(400)
     >>> y = np.where(np.arange(400) < 250, 1.0, 1.5) * x + 0.2 * rng.standard_normal(400)
     >>> fs = fstats(np.column_stack([np.ones(400), x]), y)
-    >>> fs.breakpoint, fs.test("supF").pvalue < 0.001
-    (249, True)
+    >>> abs(fs.breakpoint - 249) <= 5, fs.test("supF").pvalue < 0.001
+    (True, True)
     """
     trim = check_scalar(trim, "trim", low=0.0, high=0.5, low_open=True, high_open=True)
     X, y = regression_data(X, y)
