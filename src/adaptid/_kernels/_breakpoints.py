@@ -40,7 +40,9 @@ def _rotate_in(R, row, n):  # pragma: no cover - compiled
         if xj == 0.0:
             continue
         rjj = R[j, j]
-        r = math.hypot(rjj, xj)
+        # sqrt(a² + b²) rather than hypot: no overflow guard needed for
+        # data below 1e150, and twice as fast in this innermost loop
+        r = math.sqrt(rjj * rjj + xj * xj)
         c = rjj / r
         s = xj / r
         R[j, j] = r
@@ -101,6 +103,14 @@ def breakpoints_dp(X, y, h, F, B):  # pragma: no cover - compiled
         for i in range(n):
             for j in range(n + 1):
                 R[i, j] = 0.0
+        # layers that a segment starting at s can extend: m with F[m-1, s-1] finite
+        m_lo = M + 1
+        m_hi = 0
+        if s > 0:
+            for m in range(1, M + 1):
+                if F[m - 1, s - 1] < np.inf:
+                    m_lo = min(m_lo, m)
+                    m_hi = m
         acc = 0.0
         for e in range(s, N):
             for j in range(n):
@@ -114,13 +124,11 @@ def breakpoints_dp(X, y, h, F, B):  # pragma: no cover - compiled
                 F[0, e] = acc
                 B[0, e] = 0
             else:
-                for m in range(1, M + 1):
-                    prev = F[m - 1, s - 1]
-                    if prev < np.inf:
-                        v = prev + acc
-                        if v < F[m, e]:
-                            F[m, e] = v
-                            B[m, e] = s
+                for m in range(m_lo, m_hi + 1):
+                    v = F[m - 1, s - 1] + acc
+                    if v < F[m, e]:
+                        F[m, e] = v
+                        B[m, e] = s
 
 
 @njit(**NJIT)
