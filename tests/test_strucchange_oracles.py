@@ -276,3 +276,16 @@ def test_plots(tmp_path):
     mon.run(X[40:], y[40:])
     mon.plot().figure.savefig(tmp_path / "m.png")
     plt.close("all")
+
+
+def test_monitor_reset_example_detects_the_jump_once():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "monitor_reset.py"
+    spec = importlib.util.spec_from_file_location("monitor_reset_example", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    alarms = mod.main(["--no-plot"])
+    # the slope of a zero-mean regressor jumps at sample 3000: one alarm, soon after
+    assert len(alarms) == 1 and 3000 <= alarms[0] < 3150
