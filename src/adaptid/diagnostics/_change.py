@@ -80,8 +80,10 @@ def change_tests(X, y, *, alpha=0.05, trim=0.15):
     ChangeTests
         ``tests["cusum"|"cusum2"|"supF"|"re"|"nyblom"]`` each with
         ``statistic``, ``pvalue``, ``reject``, ``break_index`` (0-based
-        sample: first crossing for the CUSUMs, the supF date, the peak of
-        the RE process; None for Nyblom–Hansen), and ``no_change`` — True
+        sample where the statistic is attained: the supF date and the peak
+        of the RE process estimate the break date; the largest deviation of
+        the CUSUM of squares from its mean line; the CUSUM's scaled peak,
+        only indicative; None for Nyblom–Hansen), and ``no_change`` — True
         only if every test agrees that there is no change.
 
     Notes
@@ -114,16 +116,14 @@ def change_tests(X, y, *, alpha=0.05, trim=0.15):
     N, n = X.shape
     out = {}
     rc = efp(X, y, kind="rec-cusum")
-    crossing = np.flatnonzero(np.abs(rc.process) > rc.boundary(alpha))
     p = rc.pvalue
-    out["cusum"] = ChangeTest("cusum", rc.statistic, p, bool(p < alpha),
-                              int(rc.index[crossing[0]]) if crossing.size else None)
+    out["cusum"] = ChangeTest("cusum", rc.statistic, p, bool(p < alpha), rc.break_index)
     w = recursive_residuals(X, y)
     levels = np.array([0.2, 0.1, 0.05, 0.02, 0.01])
     cs = cusum_squares(w, float(levels[np.argmin(np.abs(np.log(levels / alpha)))]))
-    dev = float(np.max(np.abs(cs.statistic - (cs.upper + cs.lower) / 2)))
-    out["cusum2"] = ChangeTest("cusum2", dev, float("nan"), cs.crossed,
-                               None if cs.first_crossing is None else n + cs.first_crossing)
+    dev = np.abs(cs.statistic - (cs.upper + cs.lower) / 2)
+    out["cusum2"] = ChangeTest("cusum2", float(np.max(dev)), float("nan"), cs.crossed,
+                               n + int(np.argmax(dev)))
     fs = fstats(X, y, trim=trim)
     t = fs.test("supF")
     out["supF"] = ChangeTest("supF", t.statistic, t.pvalue, bool(t.pvalue < alpha), fs.breakpoint)

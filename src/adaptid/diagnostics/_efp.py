@@ -83,9 +83,15 @@ class EfpResult:
 
     @property
     def break_index(self) -> int:
-        """0-based sample where |process| peaks (a date estimate, for the CUSUM/RE/ME kinds)."""
-        a = np.abs(self.process).reshape(self.process.shape[0], -1).max(axis=1)
-        return int(self.index[int(np.argmax(a))])
+        """0-based sample at which :attr:`statistic` is attained.
+
+        A break-date estimate for the OLS-CUSUM and RE processes (their
+        peak); for the recursive CUSUM (whose drift continues after a
+        break) and the moving processes only indicative.
+        """
+        src = np.abs(self._stat_source).reshape(self._stat_source.shape[0], -1).max(axis=1)
+        offset = self.process.shape[0] - src.size
+        return int(self.index[offset + int(np.argmax(src))])
 
     def critical_value(self, alpha=0.05) -> float:
         """Critical value c of the test at level ``alpha`` (``pvalue(c) = alpha``)."""
