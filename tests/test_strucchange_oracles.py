@@ -289,3 +289,20 @@ def test_monitor_reset_example_detects_the_jump_once():
     alarms = mod.main(["--no-plot"])
     # the slope of a zero-mean regressor jumps at sample 3000: one alarm, soon after
     assert len(alarms) == 1 and 3000 <= alarms[0] < 3150
+
+
+def test_structural_change_page_code_runs():
+    # docs/structural_change.md: its python blocks run in order as one script
+    # (the same rule as tests/test_docs.py for the other pages)
+    import re
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    page = Path(__file__).resolve().parents[1] / "docs" / "structural_change.md"
+    blocks = re.findall(r"^```python\n(.*?)^```", page.read_text(encoding="utf-8"), re.S | re.M)
+    assert blocks
+    ns = {"__name__": "docs_structural_change"}
+    for i, code in enumerate(blocks):
+        exec(compile(code, f"structural_change.md[block {i}]", "exec"), ns)
