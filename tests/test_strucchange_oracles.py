@@ -306,3 +306,26 @@ def test_structural_change_page_code_runs():
     ns = {"__name__": "docs_structural_change"}
     for i, code in enumerate(blocks):
         exec(compile(code, f"structural_change.md[block {i}]", "exec"), ns)
+
+
+def test_cusum_squares_asymptotic_p_value_agrees_with_edgerton_wells_band():
+    # the Edgerton-Wells band's leading term is the Kolmogorov quantile: crossing the
+    # 5 % band <=> asymptotic p-value below 0.05, away from the edge; at m = 398 EW's
+    # finite-sample terms put the band at an asymptotic p of 0.066, hence the margin
+    # (0.05 - 0.02, 0.05 + 0.02) where the two may disagree
+    from adaptid.diagnostics import cusum_squares, recursive_residuals
+
+    rng = np.random.default_rng(20)
+    agree = 0
+    for _ in range(60):
+        X, y = _regression(400, int(rng.integers(1 << 30)))
+        y[200:] += rng.uniform(0, 0.3) * rng.standard_normal(200)   # variance change of random size
+        ct = change_tests(X, y)
+        cs = cusum_squares(recursive_residuals(X, y))
+        assert ct["cusum2"].reject == cs.crossed
+        p = ct["cusum2"].pvalue
+        if abs(p - 0.05) > 0.02:
+            agree += (p < 0.05) == cs.crossed
+        else:
+            agree += 1
+    assert agree == 60

@@ -3,7 +3,7 @@ r"""Dating of multiple structural breaks (Bai & Perron; R strucchange's ``breakp
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import brentq
@@ -68,9 +68,9 @@ class BreakpointsResult:
     n_breaks: int
     breakpoints: np.ndarray
     h: int
-    _X: np.ndarray
-    _y: np.ndarray
-    _B: np.ndarray
+    _X: np.ndarray = field(repr=False)
+    _y: np.ndarray = field(repr=False)
+    _B: np.ndarray = field(repr=False)
 
     @property
     def max_breaks(self) -> int:

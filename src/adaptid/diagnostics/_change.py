@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import kstwobign
 
 from .._validation import check_scalar
 from ._cusum import cusum_squares
@@ -22,7 +23,7 @@ CHANGE_TESTS = ("cusum", "cusum2", "supF", "re", "nyblom")
 
 @dataclass(frozen=True)
 class ChangeTest:
-    """One test: ``name``, ``statistic``, ``pvalue`` (NaN if none), ``reject`` at α, ``break_index``."""
+    """One test: ``name``, ``statistic``, ``pvalue``, ``reject`` at α, ``break_index`` (or None)."""
 
     name: str
     statistic: float
@@ -92,9 +93,12 @@ def change_tests(X, y, *, alpha=0.05, trim=0.15):
       strucchange's p-value) — power against changes of the mean
       direction of the regressors, none against a change of the
       coefficient of a zero-mean regressor;
-    * ``cusum2``: :func:`cusum_squares` (no p-value; rejects by crossing
-      its Edgerton–Wells band at α ∈ {0.2, 0.1, 0.05, 0.02, 0.01}, the
-      nearest tabulated level is used otherwise) — variance changes;
+    * ``cusum2``: :func:`cusum_squares`, rejecting when it crosses its
+      Edgerton–Wells band (at the tabulated level nearest α: 0.2, 0.1,
+      0.05, 0.02, 0.01); its ``pvalue`` is the asymptotic one,
+      :math:`P(\sup|B| > \sqrt{m/2 - 1}\,\max_r|s_r - r/m|)` with B a
+      Brownian bridge (the leading term of Edgerton–Wells), for
+      multiple-testing control — mainly variance changes;
     * ``supF``: :func:`fstats` (Andrews 1993; Hansen's p-value) — power
       against any coefficient change, and a break date;
     * ``re``: :func:`efp` ``"re"`` (Ploberger, Krämer & Kontrus 1989);
@@ -122,7 +126,10 @@ def change_tests(X, y, *, alpha=0.05, trim=0.15):
     levels = np.array([0.2, 0.1, 0.05, 0.02, 0.01])
     cs = cusum_squares(w, float(levels[np.argmin(np.abs(np.log(levels / alpha)))]))
     dev = np.abs(cs.statistic - (cs.upper + cs.lower) / 2)
-    out["cusum2"] = ChangeTest("cusum2", float(np.max(dev)), float("nan"), cs.crossed,
+    # asymptotic p-value: sqrt(m/2 - 1) max|s_r - r/m| -> sup|Brownian bridge|
+    # (Kolmogorov), the leading term of Edgerton & Wells' response surface
+    p2 = float(kstwobign.sf(np.sqrt(max(w.size / 2.0 - 1.0, 1.0)) * np.max(dev)))
+    out["cusum2"] = ChangeTest("cusum2", float(np.max(dev)), p2, cs.crossed,
                                n + int(np.argmax(dev)))
     fs = fstats(X, y, trim=trim)
     t = fs.test("supF")
