@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validation import param_error
 from ._pvalues import pvalue_efp
 from ._sc_common import ols, regression_data
 
@@ -83,8 +84,6 @@ def nyblom_hansen(X, y):
     f = np.column_stack([X * e[:, None], e * e - s2]) / np.sqrt(N)
     lam, V = np.linalg.eigh(f.T @ f)
     if lam[0] <= lam[-1] * 1e-14:
-        from .._validation import param_error
-
         raise param_error("y", "not fitted exactly (the scores are degenerate)",
                           "<a singular score covariance>")
     S = np.vstack([np.zeros((1, n + 1)), np.cumsum(f, axis=0)])
