@@ -190,8 +190,8 @@ def efp(X, y, *, kind, h=0.15):
     statistic is the supremum of the absolute process (the rec-CUSUM
     divided by 1 + 2t) and the p-value strucchange's (Kuan & Hornik 1995;
     Zeileis et al. 2002, §3). Recursive and moving estimates come from
-    compiled Givens QR updates (each window factorised afresh: O(N h N n²)
-    for ``"me"``).
+    compiled Givens QR updates: O(N n²) for ``"re"``; each window
+    factorised afresh for ``"me"``, O(N ⌊Nh⌋ n²).
 
     References
     ----------
