@@ -329,3 +329,23 @@ def test_cusum_squares_asymptotic_p_value_agrees_with_edgerton_wells_band():
         else:
             agree += 1
     assert agree == 60
+
+
+def test_breakpoints_benchmark_runs_and_agrees_with_ruptures(tmp_path):
+    # smoke run of benchmarks/bench_breakpoints.py (speed is never asserted):
+    # it must find ruptures' segmentation, which it checks itself
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    out = tmp_path / "bp.json"
+    env = dict(os.environ, PYTHONPATH=str(root / "src"))
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_breakpoints.py"),
+                           "--n", "200", "--repeat", "1", "--json", str(out)],
+                          capture_output=True, text=True, timeout=300, env=env)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    res = json.loads(out.read_text())
+    assert res["same"] is True and res["N"] == 200 and res["m"] >= 1
