@@ -151,11 +151,21 @@ def test_cusum_std_convention_equals_statsmodels(macro):
         assert c.first_crossing == np.flatnonzero(outside)[0]
 
 
-def test_cusum_default_is_brown_durbin_evans_normalisation(macro):
+def test_cusum_default_scale_is_recursive_residuals_std(macro):
+    # issue 17: the default divides by sd(w) (ddof=1) as R strucchange
+    # efp("Rec-CUSUM"), Stata cusum6 and statsmodels RecursiveLS.cusum do.
+    X, y, res = macro
+    w = recursive_residuals(X, y)
+    c = cusum(w)
+    assert c.scale == pytest.approx(np.std(naive_recursive_residuals(X, y), ddof=1), rel=1e-10)
+    np.testing.assert_allclose(c.statistic, res.cusum, rtol=1e-8, atol=1e-8)
+
+
+def test_cusum_ols_scale_is_brown_durbin_evans_normalisation(macro):
     X, y, _ = macro
     N, n = X.shape
     w = recursive_residuals(X, y)
-    c = cusum(w)
+    c = cusum(w, scale="ols")
     # BDE: sigma_hat^2 = S_T / (T - k), S_T the full-sample OLS residual SS
     r = y - X @ np.linalg.lstsq(X, y, rcond=None)[0]
     sigma = np.sqrt(r @ r / (N - n))

@@ -62,7 +62,7 @@ def loop_reference(df, est, *, phi=PHI, y="v", time="time", alpha=0.05, burn_in=
         stderr = np.sqrt(np.diag(e.P) * sigma2 / noise_var)
         burn = max(10 * n, int(np.ceil(0.1 * used.sum()))) if burn_in is None else burn_in
         err_rows = np.flatnonzero(used)[burn:]
-        c = cusum(tr.error[err_rows], alpha)
+        c = cusum(tr.error[err_rows], alpha, scale="ols")   # the fleet flag is BDE's
         tcol = g[time].to_numpy() if time is not None else np.arange(len(g))
         at = float(tcol[err_rows[c.first_crossing]]) if c.crossed else np.nan
         a_rows[dev] = dict(zip(phi, e.theta), **{f"stderr_{p}": s for p, s in zip(phi, stderr)},
@@ -267,7 +267,7 @@ def test_recursive_change_test_matches_diagnostics(faulty_fleet):
     for dev in range(0, 60, 7):
         g = faulty_fleet[faulty_fleet.device == dev]
         w = recursive_residuals(g[PHI].to_numpy(), g["v"].to_numpy())
-        c = cusum(w, alpha=0.01)
+        c = cusum(w, alpha=0.01, scale="ols")
         assert res.loc[dev, "change"] == c.crossed
         np.testing.assert_allclose(res.loc[dev, "change_stat"],
                                    np.max(np.abs(c.statistic) / c.upper), rtol=1e-9)

@@ -126,7 +126,7 @@ def _bde_critical_value(alpha: float) -> float:
     return float(brentq(excess, 1e-12, 40.0, xtol=1e-14, rtol=1e-14))
 
 
-def cusum(w, alpha=0.05, *, scale="ols"):
+def cusum(w, alpha=0.05, *, scale="std"):
     r"""CUSUM test of Brown, Durbin & Evans on recursive residuals.
 
     Parameters
@@ -136,16 +136,17 @@ def cusum(w, alpha=0.05, *, scale="ols"):
         :func:`recursive_residuals`; at least 2, finite.
     alpha : float, optional
         Significance level of the two-sided test, in (0, 1). Default 0.05.
-    scale : {"ols", "std"} or float, optional
+    scale : {"std", "ols"} or float, optional
         The :math:`\hat\sigma` dividing the sums:
 
-        * ``"ols"`` (default, Brown, Durbin & Evans 1975):
+        * ``"std"`` (default; R strucchange's ``efp(type="Rec-CUSUM")``,
+          Stata ``cusum6``, statsmodels' ``RecursiveLS.cusum``, Harvey
+          1990): the sample standard deviation of the :math:`w_j`
+          (``ddof=1``, mean removed);
+        * ``"ols"`` (Brown, Durbin & Evans 1975):
           :math:`\hat\sigma^2 = \frac{1}{m}\sum_j w_j^2`, which equals the
           residual variance :math:`S_N/(N-n)` of the least-squares fit on
           all samples;
-        * ``"std"`` (statsmodels' ``RecursiveLS.cusum``, Harvey 1990): the
-          sample standard deviation of the :math:`w_j` (``ddof=1``, mean
-          removed);
         * a positive float: a known σ.
 
     Returns
@@ -184,7 +185,7 @@ def cusum(w, alpha=0.05, *, scale="ols"):
     for α = 0.10, 0.05, 0.01 the values printed by BDE (0.850, 0.948,
     1.143) are used, for other α the equation is solved.
 
-    Conventions: with ``scale="std"`` the statistic and bounds equal
+    Conventions: with the default ``scale="std"`` the statistic and bounds equal
     statsmodels' ``RecursiveLS`` results ``.cusum`` and
     ``._cusum_significance_bounds(alpha)`` for α = 0.05 and 0.01 (bounds
     evaluated at sample r; the bounds are not rescaled, only the
