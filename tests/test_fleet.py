@@ -7,6 +7,8 @@ statsmodels OLS for standard errors, numpy/adaptid ``lstsq`` for the dask
 least squares, and the data set's own ground truth for faults.
 """
 
+import functools
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -36,6 +38,13 @@ def fleet_with_truth(**kw):
 
 def truth_of(df):
     return _TRUTH[id(df)]
+
+
+# The equality tests below compare with loop_reference, whose change flag is
+# Brown-Durbin-Evans' CUSUM of the a-priori errors: they pin that test (the
+# default supF, with p-values and multiple-testing control, is checked in
+# tests/test_fleet_change.py against adaptid.diagnostics and statsmodels).
+identify = functools.partial(fleet.identify, change_test="a-priori")
 
 
 # ------------------------------------------------------------------ helpers
@@ -117,7 +126,7 @@ def parquet_dir(small, tmp_path_factory):
 
 # ------------------------------------------------------------- equivalence
 def test_pandas_equals_loop(small, small_ref):
-    res = fleet.identify(small, group="device", y="v", phi=PHI, time="time")
+    res = identify(small, group="device", y="v", phi=PHI, time="time")
     assert res.index.name == "device"
     assert_same(res, small_ref)
     assert (res["n_skipped"] == 0).all()
@@ -126,14 +135,14 @@ def test_pandas_equals_loop(small, small_ref):
 def test_dask_input_equals_loop(small, small_ref):
     shuffled = small.sample(frac=1.0, random_state=7)
     ddf = dd.from_pandas(shuffled, npartitions=5, sort=False)
-    res = fleet.identify(ddf, group="device", y="v", phi=PHI, time="time")
+    res = identify(ddf, group="device", y="v", phi=PHI, time="time")
     assert_same(res, small_ref)
 
 
 def test_parquet_input_equals_loop(parquet_dir, small_ref):
-    res = fleet.identify(str(parquet_dir), group="device", y="v", phi=PHI, time="time")
+    res = identify(str(parquet_dir), group="device", y="v", phi=PHI, time="time")
     assert_same(res, small_ref)
-    res_glob = fleet.identify(str(parquet_dir / "*.parquet"), group="device", y="v", phi=PHI,
+    res_glob = identify(str(parquet_dir / "*.parquet"), group="device", y="v", phi=PHI,
                               time="time")
     assert_same(res_glob, small_ref)
 
@@ -144,12 +153,12 @@ def test_local_cluster_equals_loop(kind, cluster, small, small_ref, parquet_dir)
             "dask": dd.from_pandas(small.sample(frac=1.0, random_state=2), npartitions=4,
                                    sort=False),
             "parquet": str(parquet_dir)}[kind]
-    res = fleet.identify(data, group="device", y="v", phi=PHI, time="time", client=cluster)
+    res = identify(data, group="device", y="v", phi=PHI, time="time", client=cluster)
     assert_same(res, small_ref)
 
 
 def test_scheduler_address(cluster, small, small_ref):
-    res = fleet.identify(small, group="device", y="v", phi=PHI, time="time",
+    res = identify(small, group="device", y="v", phi=PHI, time="time",
                          client=cluster.scheduler.address)
     assert_same(res, small_ref)
 
@@ -165,15 +174,15 @@ def test_methods_equal_loop(small, method, options, window, noise_var):
     est = cls(4, **options)
     ref = loop_reference(small, est, window=window, noise_var=noise_var,
                          forgetting=options.get("forgetting", 1.0))
-    res = fleet.identify(small, group="device", y="v", phi=PHI, time="time", method=method,
+    res = identify(small, group="device", y="v", phi=PHI, time="time", method=method,
                          **options)
     assert_same(res, ref)
 
 
 def test_shuffled_rows_with_time_equal_sorted(small, small_ref):
-    sorted_res = fleet.identify(small, group="device", y="v", phi=PHI, time="time")
+    sorted_res = identify(small, group="device", y="v", phi=PHI, time="time")
     shuffled = small.sample(frac=1.0, random_state=11)
-    res = fleet.identify(shuffled, group="device", y="v", phi=PHI, time="time", npartitions=3)
+    res = identify(shuffled, group="device", y="v", phi=PHI, time="time", npartitions=3)
     pd.testing.assert_frame_equal(res, sorted_res)
     assert_same(res, small_ref)
 
@@ -182,9 +191,9 @@ def test_time_none_takes_stored_order(small):
     # reverse the rows of every device: without `time` that reversed order is used
     rev = small.iloc[::-1].reset_index(drop=True)
     ref = loop_reference(rev, adaptid.RLS(4), time=None)
-    assert_same(fleet.identify(rev, group="device", y="v", phi=PHI), ref)
+    assert_same(identify(rev, group="device", y="v", phi=PHI), ref)
     ddf = dd.from_pandas(rev, npartitions=4, sort=False)
-    assert_same(fleet.identify(ddf, group="device", y="v", phi=PHI), ref)
+    assert_same(identify(ddf, group="device", y="v", phi=PHI), ref)
 
 
 def test_equal_times_keep_stored_order(small):
@@ -192,8 +201,8 @@ def test_equal_times_keep_stored_order(small):
     ref = loop_reference(coarse, adaptid.RLS(4))
     ddf = dd.from_pandas(coarse.sample(frac=1.0, random_state=3), npartitions=4, sort=False)
     ddf_ref = loop_reference(ddf.compute(), adaptid.RLS(4))
-    assert_same(fleet.identify(coarse, group="device", y="v", phi=PHI, time="time"), ref)
-    assert_same(fleet.identify(ddf, group="device", y="v", phi=PHI, time="time"), ddf_ref)
+    assert_same(identify(coarse, group="device", y="v", phi=PHI, time="time"), ref)
+    assert_same(identify(ddf, group="device", y="v", phi=PHI, time="time"), ddf_ref)
 
 
 def test_nan_skip_equals_loop(small):
@@ -201,7 +210,7 @@ def test_nan_skip_equals_loop(small):
     bad.loc[bad.index[[5, 400, 401, 2000]], "v"] = np.nan
     bad.loc[bad.index[1000], "omega"] = np.nan
     ref = loop_reference(bad, adaptid.RLS(4, nan_policy="skip"))
-    res = fleet.identify(bad, group="device", y="v", phi=PHI, time="time", nan_policy="skip")
+    res = identify(bad, group="device", y="v", phi=PHI, time="time", nan_policy="skip")
     assert_same(res, ref)
     assert res["n_skipped"].sum() == 5
 
@@ -217,7 +226,7 @@ def test_model_callable_equals_loop(small):
         Phi = np.column_stack([g["i"].to_numpy()[1:], g["omega"].to_numpy()[1:], v[:-1]])
         return Regression(Phi=Phi, y=v[1:], names=names, index=np.arange(1, len(g)))
 
-    res = fleet.identify(small, group="device", y=None, model=model, time="time")
+    res = identify(small, group="device", y=None, model=model, time="time")
     assert list(res.columns[:3]) == list(names)
     for dev in (0, 7, 23):
         g = small[small.device == dev].sort_values("time")
@@ -230,7 +239,7 @@ def test_model_callable_equals_loop(small):
 
 def test_tracks_written(tmp_path, small):
     out = tmp_path / "tracks"
-    fleet.identify(small, group="device", y="v", phi=PHI, time="time", tracks=str(out))
+    identify(small, group="device", y="v", phi=PHI, time="time", tracks=str(out))
     tr = pd.read_parquet(out)
     assert len(tr) == len(small)
     g = tr[tr["device"].astype(int) == 4].sort_values("time")
@@ -251,7 +260,7 @@ def test_change_flag_finds_faults(faulty_fleet, change_test):
     truth = truth_of(faulty_fleet)
     G = len(truth)
     alpha = 0.05 / G  # family-wise 5 % over the fleet (Bonferroni)
-    res = fleet.identify(faulty_fleet, group="device", y="v", phi=PHI, time="time",
+    res = identify(faulty_fleet, group="device", y="v", phi=PHI, time="time",
                          alpha=alpha, change_test=change_test)
     assert truth["fault"].sum() == 12
     np.testing.assert_array_equal(res["change"].to_numpy(), truth["fault"].to_numpy())
@@ -262,7 +271,7 @@ def test_change_flag_finds_faults(faulty_fleet, change_test):
 
 
 def test_recursive_change_test_matches_diagnostics(faulty_fleet):
-    res = fleet.identify(faulty_fleet, group="device", y="v", phi=PHI, time="time",
+    res = identify(faulty_fleet, group="device", y="v", phi=PHI, time="time",
                          change_test="recursive", alpha=0.01)
     for dev in range(0, 60, 7):
         g = faulty_fleet[faulty_fleet.device == dev]
@@ -280,7 +289,7 @@ def test_stderr_equals_ols(small):
     import statsmodels.api as sm
     truth = truth_of(small)
     healthy = truth.index[~truth["fault"]][:4]
-    res = fleet.identify(small, group="device", y="v", phi=PHI, time="time", P0=1e10)
+    res = identify(small, group="device", y="v", phi=PHI, time="time", P0=1e10)
     for dev in healthy:
         g = small[small.device == dev]
         ols = sm.OLS(g["v"].to_numpy(), g[PHI].to_numpy()).fit()
@@ -294,16 +303,16 @@ def test_stderr_equals_ols(small):
 # ------------------------------------------------------------------ bad input
 def test_missing_columns_named(small):
     with pytest.raises(ValueError, match="group must be .*'dev'"):
-        fleet.identify(small, group="dev", y="v", phi=PHI)
+        identify(small, group="dev", y="v", phi=PHI)
     with pytest.raises(ValueError, match="phi must be .*'current'"):
-        fleet.identify(small, group="device", y="v", phi=["current", "omega"])
+        identify(small, group="device", y="v", phi=["current", "omega"])
     with pytest.raises(ValueError, match="y must be .*'voltage'"):
-        fleet.identify(small, group="device", y="voltage", phi=PHI)
+        identify(small, group="device", y="voltage", phi=PHI)
     with pytest.raises(ValueError, match="time must be .*'t'"):
-        fleet.identify(small, group="device", y="v", phi=PHI, time="t")
+        identify(small, group="device", y="v", phi=PHI, time="t")
     ddf = dd.from_pandas(small, npartitions=2, sort=False)
     with pytest.raises(ValueError, match="phi must be .*'current'"):
-        fleet.identify(ddf, group="device", y="v", phi=["current"])
+        identify(ddf, group="device", y="v", phi=["current"])
 
 
 def test_nan_raise_names_group(small):
@@ -311,31 +320,31 @@ def test_nan_raise_names_group(small):
     row = bad.index[(bad.device == 13).to_numpy()][50]
     bad.loc[row, "omega"] = np.nan
     with pytest.raises(ValueError, match="group 13"):
-        fleet.identify(bad, group="device", y="v", phi=PHI, time="time")
+        identify(bad, group="device", y="v", phi=PHI, time="time")
     with pytest.raises(ValueError, match="group 13"):
-        fleet.identify(dd.from_pandas(bad, npartitions=3, sort=False), group="device", y="v",
+        identify(dd.from_pandas(bad, npartitions=3, sort=False), group="device", y="v",
                        phi=PHI, time="time")
 
 
 def test_short_group_named(small):
     short = pd.concat([small, small[small.device == 0].head(3).assign(device=99)])
     with pytest.raises(ValueError, match="3 samples in group 99"):
-        fleet.identify(short, group="device", y="v", phi=PHI, time="time")
+        identify(short, group="device", y="v", phi=PHI, time="time")
 
 
 def test_bad_options(small):
     with pytest.raises(TypeError, match="window"):
-        fleet.identify(small, group="device", y="v", phi=PHI, window=10)
+        identify(small, group="device", y="v", phi=PHI, window=10)
     with pytest.raises(TypeError, match="process_cov"):
-        fleet.identify(small, group="device", y="v", phi=PHI, method="kalman")
+        identify(small, group="device", y="v", phi=PHI, method="kalman")
     with pytest.raises(ValueError, match="method"):
-        fleet.identify(small, group="device", y="v", phi=PHI, method="lms")
+        identify(small, group="device", y="v", phi=PHI, method="lms")
     with pytest.raises(ValueError, match="forgetting"):
-        fleet.identify(small, group="device", y="v", phi=PHI, forgetting=1.5)
+        identify(small, group="device", y="v", phi=PHI, forgetting=1.5)
     with pytest.raises(TypeError, match="phi"):
-        fleet.identify(small, group="device", y="v")
+        identify(small, group="device", y="v")
     with pytest.raises(TypeError, match="data"):
-        fleet.identify(np.zeros((3, 3)), group="device", y="v", phi=PHI)
+        identify(np.zeros((3, 3)), group="device", y="v", phi=PHI)
 
 
 # ------------------------------------------------------------------ lstsq
@@ -428,7 +437,7 @@ def test_fleet_dataset_bad_arguments():
 def test_fleet_command(parquet_dir, small_ref, tmp_path):
     from adaptid.cli._fleet import fleet_command, summary_text, write_result
     res = fleet_command(str(parquet_dir), "device", "v", "i,di_dt,omega,sign_i", time="time",
-                        quiet=True)
+                        change_test="a-priori", quiet=True)
     assert_same(res, small_ref)
     text = summary_text(res)
     assert f"{len(res)} devices identified, {int(res['change'].sum())} with a change" in text

@@ -264,8 +264,17 @@ def fleet(
     process_cov: Annotated[Optional[float], typer.Option("--process-cov", help="R1 (kalman).")] = None,
     noise_var: Annotated[Optional[float], typer.Option("--noise-var", help="R2 (kalman).")] = None,
     p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I.")] = None,
-    alpha: Annotated[float, typer.Option("--alpha", help="Level of each device's CUSUM change "
-                                         "test (use 0.05/G for a family-wise level).")] = 0.05,
+    alpha: Annotated[float, typer.Option("--alpha", help="Level of the change test: the fleet's "
+                                         "false discovery rate with --multiple bh.")] = 0.05,
+    change_test: Annotated[str, typer.Option("--change-test", metavar="supF|re|cusum|cusum2|a-priori",
+                                             help="Per-device change test: supF (Andrews; sees "
+                                             "coefficient changes, dates the break), re "
+                                             "(fluctuation of recursive estimates), cusum, cusum2 "
+                                             "(CUSUM of squares), a-priori (BDE CUSUM of the "
+                                             "estimator's errors, no p-value).")] = "supF",
+    multiple: Annotated[str, typer.Option("--multiple", metavar="bh|bonferroni|none",
+                                          help="Control across devices: Benjamini-Hochberg FDR, "
+                                          "Bonferroni (alpha/G) or none.")] = "bh",
     nan: Annotated[str, typer.Option("--nan", metavar="skip|error")] = "error",
     scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Dask scheduler address, "
                                                      "or 'local' to start a LocalCluster "
@@ -280,7 +289,7 @@ def fleet(
     debug: DebugOpt = False,
 ):
     """Identify every device of a fleet with the same model and estimator (on Dask);
-    one row of results per device, with a CUSUM change flag."""
+    one row of results per device, with a change flag and the break date."""
     out = _output(ctx, quiet, verbose, debug, json)
     with _guard(out):
         nan_policy = {"skip": "skip", "error": "raise"}.get(nan.strip().lower())
@@ -294,12 +303,20 @@ def fleet(
         from ._fleet import check_outputs, fleet_command, summary_text, write_result
 
         check_ranges(forgetting=forgetting, P0=p0, process_cov=process_cov, noise_var=noise_var)
+        tests = {t.lower(): t for t in ("supF", "re", "cusum", "cusum2", "a-priori")}
+        if change_test.strip().lower() not in tests:
+            raise CLIError(f"--change-test must be one of {', '.join(tests.values())}, "
+                           f"got {change_test!r}")
+        if multiple.strip().lower() not in ("bh", "bonferroni", "none"):
+            raise CLIError(f"--multiple must be bh, bonferroni or none, got {multiple!r}")
         check_outputs(data, output, tracks)
         result = fleet_command(data, group, y=y, phi=phi, model=model,
                                method=method.strip().lower(), time=time, scheduler=scheduler,
                                tracks=None if tracks is None else str(tracks),
                                forgetting=forgetting, window=window, process_cov=process_cov,
                                noise_var=noise_var, P0=p0, alpha=alpha, nan_policy=nan_policy,
+                               change_test=tests[change_test.strip().lower()],
+                               multiple=multiple.strip().lower(),
                                quiet=out.quiet or out.json or not sys.stderr.isatty())
         if output is not None:
             write_result(result, output)

@@ -51,7 +51,7 @@ def resolve_model(spec):
 def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=None,
                   scheduler=None, tracks=None, *, forgetting=None, window=None,
                   process_cov=None, noise_var=None, P0=None, alpha=0.05,
-                  nan_policy="raise", change_test="a-priori", npartitions=None,
+                  nan_policy="raise", change_test="supF", multiple="bh", npartitions=None,
                   quiet=False):
     """Run :func:`adaptid.fleet.identify` for the command line.
 
@@ -73,7 +73,7 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
         Directory for the per-sample estimates (Parquet).
     forgetting, window, process_cov, noise_var, P0 : optional
         Estimator options; ``None`` leaves the estimator's default.
-    alpha, nan_policy, change_test, npartitions
+    alpha, nan_policy, change_test, multiple, npartitions
         As in :func:`adaptid.fleet.identify`.
     quiet : bool
         No progress bar.
@@ -91,7 +91,8 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
     return identify(source, group=group, y=y, phi=_split_names(phi),
                     model=resolve_model(model), method=method, time=time,
                     client=scheduler or None, tracks=tracks, nan_policy=nan_policy,
-                    alpha=alpha, change_test=change_test, npartitions=npartitions,
+                    alpha=alpha, change_test=change_test, multiple=multiple,
+                    npartitions=npartitions,
                     progress=not quiet, **options)
 
 
@@ -101,13 +102,14 @@ def summary_text(result, *, max_rows=10) -> str:
     flagged = result.index[result["change"].to_numpy(dtype=bool)]
     theta_cols = [c for c in result.columns
                   if f"stderr_{c}" in result.columns]
-    lines = [f"{n} devices identified, {len(flagged)} with a change flag "
-             f"(CUSUM), {int(result['n_skipped'].sum())} samples skipped"]
+    lines = [f"{n} devices identified, {len(flagged)} with a change flag, "
+             f"{int(result['n_skipped'].sum())} samples skipped"]
     if theta_cols:
         desc = result[theta_cols].describe().loc[["mean", "std", "min", "max"]]
         lines.append(desc.to_string(float_format=lambda v: f"{v:.6g}"))
     if len(flagged):
-        show = result.loc[flagged[:max_rows], ["change_at", "change_stat", "rms"]]
+        cols = [c for c in ("change_at", "change_stat", "change_pvalue", "rms") if c in result]
+        show = result.loc[flagged[:max_rows], cols]
         lines.append("flagged:")
         lines.append(show.to_string(float_format=lambda v: f"{v:.6g}"))
         if len(flagged) > max_rows:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import kstwobign
 
-from .._validation import check_scalar
+from .._validation import check_choice, check_scalar
 from ._cusum import cusum_squares
 from ._efp import efp
 from ._fstats import fstats
@@ -61,7 +61,7 @@ class ChangeTests:
                 "tests": {k: v.to_dict() for k, v in self.tests.items()}}
 
 
-def change_tests(X, y, *, alpha=0.05, trim=0.15):
+def change_tests(X, y, *, alpha=0.05, trim=0.15, tests=CHANGE_TESTS):
     r"""Run the recursive CUSUM, CUSUM of squares, supF, RE and Nyblom–Hansen tests.
 
     Parameters
@@ -75,6 +75,9 @@ def change_tests(X, y, *, alpha=0.05, trim=0.15):
         across the five: the verdict is deliberately sensitive).
     trim : float, optional
         Trimming of the supF candidates. Default 0.15.
+    tests : sequence of str, optional
+        Which of :data:`CHANGE_TESTS` to run (default all; the fleet runs
+        one per device).
 
     Returns
     -------
@@ -118,10 +121,24 @@ def change_tests(X, y, *, alpha=0.05, trim=0.15):
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
     X, y = regression_data(X, y)
     N, n = X.shape
+    tests = tuple(tests)
+    for name in tests:
+        check_choice(name, "tests", CHANGE_TESTS)
     out = {}
+    for name in CHANGE_TESTS:
+        if name in tests:
+            out[name] = _RUN[name](X, y, alpha, trim)
+    return ChangeTests(tests=out, alpha=alpha)
+
+
+def _cusum(X, y, alpha, trim):
     rc = efp(X, y, kind="rec-cusum")
     p = rc.pvalue
-    out["cusum"] = ChangeTest("cusum", rc.statistic, p, bool(p < alpha), rc.break_index)
+    return ChangeTest("cusum", rc.statistic, p, bool(p < alpha), rc.break_index)
+
+
+def _cusum2(X, y, alpha, trim):
+    n = X.shape[1]
     w = recursive_residuals(X, y)
     levels = np.array([0.2, 0.1, 0.05, 0.02, 0.01])
     cs = cusum_squares(w, float(levels[np.argmin(np.abs(np.log(levels / alpha)))]))
@@ -129,14 +146,24 @@ def change_tests(X, y, *, alpha=0.05, trim=0.15):
     # asymptotic p-value: sqrt(m/2 - 1) max|s_r - r/m| -> sup|Brownian bridge|
     # (Kolmogorov), the leading term of Edgerton & Wells' response surface
     p2 = float(kstwobign.sf(np.sqrt(max(w.size / 2.0 - 1.0, 1.0)) * np.max(dev)))
-    out["cusum2"] = ChangeTest("cusum2", float(np.max(dev)), p2, cs.crossed,
-                               n + int(np.argmax(dev)))
+    return ChangeTest("cusum2", float(np.max(dev)), p2, cs.crossed, n + int(np.argmax(dev)))
+
+
+def _supf(X, y, alpha, trim):
     fs = fstats(X, y, trim=trim)
     t = fs.test("supF")
-    out["supF"] = ChangeTest("supF", t.statistic, t.pvalue, bool(t.pvalue < alpha), fs.breakpoint)
+    return ChangeTest("supF", t.statistic, t.pvalue, bool(t.pvalue < alpha), fs.breakpoint)
+
+
+def _re(X, y, alpha, trim):
     re = efp(X, y, kind="re")
     p = re.pvalue
-    out["re"] = ChangeTest("re", re.statistic, p, bool(p < alpha), re.break_index)
+    return ChangeTest("re", re.statistic, p, bool(p < alpha), re.break_index)
+
+
+def _nyblom(X, y, alpha, trim):
     nh = nyblom_hansen(X, y)
-    out["nyblom"] = ChangeTest("nyblom", nh.statistic, nh.pvalue, bool(nh.pvalue < alpha), None)
-    return ChangeTests(tests=out, alpha=alpha)
+    return ChangeTest("nyblom", nh.statistic, nh.pvalue, bool(nh.pvalue < alpha), None)
+
+
+_RUN = {"cusum": _cusum, "cusum2": _cusum2, "supF": _supf, "re": _re, "nyblom": _nyblom}

@@ -14,9 +14,12 @@ from ..estimators import METHODS
 
 __all__ = ["identify"]
 
-_CHANGE_TESTS = ("a-priori", "recursive")
+#: tests with a p-value (adaptid.diagnostics.change_tests), and BDE's CUSUM crossing
+_PVALUE_TESTS = ("supF", "re", "cusum", "cusum2")
+_CHANGE_TESTS = _PVALUE_TESTS + ("a-priori", "recursive")
+_MULTIPLE = ("bh", "bonferroni", "none")
 _STAT_COLUMNS = ("n_samples", "n_skipped", "sigma2", "rms", "change", "change_stat",
-                 "change_at")
+                 "change_pvalue", "change_at")
 _ORDER = "__adaptid_order__"
 _KERNEL_LOCK = threading.Lock()
 
@@ -282,7 +285,8 @@ def _result_frame(res, stats, names, uniq, group, offsets, row_t, pos):
         else:
             at[has] = rows - offsets[:-1][has]
     cols.update(n_samples=res.n_samples, n_skipped=res.n_skipped, sigma2=stats["sigma2"],
-                rms=stats["rms"], change=has, change_stat=stats["ratio"], change_at=at)
+                rms=stats["rms"], change=has, change_stat=stats["ratio"],
+                change_pvalue=stats["pvalue"], change_at=at)
     return pd.DataFrame(cols, index=pd.Index(uniq, name=group))
 
 
@@ -344,7 +348,7 @@ def _limit_threads():
 
 def _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in):
     """σ̂², residual RMS, standard errors and the CUSUM flag of every segment."""
-    from .._kernels._fleet import cusum_errors_kernel, recursive_residuals_segments, residual_ss_kernel
+    from .._kernels._fleet import residual_ss_kernel
     G = offsets.shape[0] - 1
     n = Phi.shape[1]
     used = ~res.skipped
@@ -362,6 +366,40 @@ def _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in):
         diagP = np.clip(np.diagonal(res.P, axis1=1, axis2=2), 0.0, None)
         stderr = np.sqrt(diagP * (sigma2 / noise_var)[:, None])
 
+    pvalue = np.full(G, np.nan)
+    if change_test in _PVALUE_TESTS:
+        ratio, pvalue, first = _pvalue_tests(Phi, Y, used, offsets, change_test, alpha_a[1])
+    else:
+        ratio, first = _bde_tests(res, Phi, Y, used, offsets, alpha_a[0], change_test, burn_in)
+    return {"sigma2": sigma2, "rms": rms, "stderr": stderr, "ratio": ratio, "first": first,
+            "pvalue": pvalue}
+
+
+def _pvalue_tests(Phi, Y, used, offsets, change_test, alpha):
+    """Per group: the statistic, p-value and break sample of one test of
+    :func:`adaptid.diagnostics.change_tests` on the group's used samples
+    (each test one compiled pass; a loop over groups, not over samples)."""
+    from ..diagnostics import change_tests
+    G = offsets.shape[0] - 1
+    stat, pval = np.full(G, np.nan), np.full(G, np.nan)
+    first = np.full(G, -1, dtype=np.int64)
+    for g in range(G):
+        rows = np.flatnonzero(used[offsets[g]:offsets[g + 1]]) + offsets[g]
+        try:
+            t = change_tests(Phi[rows], Y[rows], alpha=alpha, tests=(change_test,))[change_test]
+        except ValueError:  # too few samples for the test: no verdict
+            continue
+        stat[g], pval[g] = t.statistic, t.pvalue
+        if t.break_index is not None and t.pvalue < alpha:
+            first[g] = rows[t.break_index]
+    return stat, pval, first
+
+
+def _bde_tests(res, Phi, Y, used, offsets, alpha_a, change_test, burn_in):
+    """Brown–Durbin–Evans CUSUM crossing of every segment (compiled): (ratio, first)."""
+    from .._kernels._fleet import cusum_errors_kernel, recursive_residuals_segments
+    G = offsets.shape[0] - 1
+    n = Phi.shape[1]
     ratio = np.empty(G)
     first = np.empty(G, dtype=np.int64)
     if change_test == "a-priori":
@@ -370,22 +408,36 @@ def _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in):
         else:
             burn = np.full(G, burn_in, dtype=np.int64)
         cusum_errors_kernel(res.error, used, offsets, burn, alpha_a, ratio, first)
+        return ratio, first
+    if used.all():
+        Pc, Yc, oc, rows = Phi, Y, offsets, None
     else:
-        if used.all():
-            Pc, Yc, oc, rows = Phi, Y, offsets, None
-        else:
-            rows = np.flatnonzero(used)
-            Pc, Yc = np.ascontiguousarray(Phi[rows]), np.ascontiguousarray(Y[rows])
-            oc = np.zeros_like(offsets)
-            np.cumsum(res.n_samples, out=oc[1:])
-        w = np.empty(Pc.shape[0])
-        recursive_residuals_segments(Pc, Yc, oc, w)
-        ok = np.isfinite(w)
-        cusum_errors_kernel(np.where(ok, w, 0.0), ok, oc, np.zeros(G, dtype=np.int64),
-                            alpha_a, ratio, first)
-        if rows is not None:
-            first = np.where(first >= 0, rows[np.maximum(first, 0)], -1)
-    return {"sigma2": sigma2, "rms": rms, "stderr": stderr, "ratio": ratio, "first": first}
+        rows = np.flatnonzero(used)
+        Pc, Yc = np.ascontiguousarray(Phi[rows]), np.ascontiguousarray(Y[rows])
+        oc = np.zeros_like(offsets)
+        np.cumsum(res.n_samples, out=oc[1:])
+    w = np.empty(Pc.shape[0])
+    recursive_residuals_segments(Pc, Yc, oc, w)
+    ok = np.isfinite(w)
+    cusum_errors_kernel(np.where(ok, w, 0.0), ok, oc, np.zeros(G, dtype=np.int64),
+                        alpha_a, ratio, first)
+    if rows is not None:
+        first = np.where(first >= 0, rows[np.maximum(first, 0)], -1)
+    return ratio, first
+
+
+def _benjamini_hochberg(p, alpha):
+    """Rejections of the Benjamini–Hochberg (1995) step-up procedure at FDR α (NaN: none)."""
+    p = np.asarray(p, dtype=float)
+    ok = np.flatnonzero(np.isfinite(p))
+    reject = np.zeros(p.shape, dtype=bool)
+    if ok.size:
+        order = ok[np.argsort(p[ok], kind="stable")]
+        m = ok.size
+        below = p[order] <= alpha * np.arange(1, m + 1) / m
+        if below.any():
+            reject[order[: int(np.flatnonzero(below)[-1]) + 1]] = True
+    return reject
 
 
 def _write_tracks(path, group, uniq, lengths, res, names, pos, row_t, time):
@@ -478,7 +530,7 @@ def _add_order(part, partition_info=None):
 
 
 def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, client=None,
-             tracks=None, nan_policy="raise", alpha=0.05, change_test="a-priori",
+             tracks=None, nan_policy="raise", alpha=0.05, change_test="supF", multiple="bh",
              burn_in=None, npartitions=None, progress=False, **estimator_options):
     r"""Identify the same linear-in-parameters model on every group (device) of a fleet.
 
@@ -536,8 +588,14 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     alpha : float
         Per-group level of the CUSUM test, in (0, 1). For a family-wise
         level over G devices use ``alpha / G`` (Bonferroni).
-    change_test : {"a-priori", "recursive"}
-        What the CUSUM runs on (see Notes).
+    change_test : {"supF", "re", "cusum", "cusum2", "a-priori", "recursive"}
+        The per-device test of constant parameters (see Notes). Default
+        ``"supF"``: it sees a change of any coefficient and dates it.
+    multiple : {"bh", "bonferroni", "none"}
+        Control across the devices for the tests with a p-value:
+        Benjamini–Hochberg at false discovery rate ``alpha`` (default),
+        Bonferroni (family-wise level ``alpha``: each device at α/G), or
+        none (each device at α).
     burn_in : int, optional
         Used samples dropped at the start of each group before the
         ``"a-priori"`` CUSUM; default max(10·n, ⌈0.1·n_samples⌉) of that
@@ -593,7 +651,22 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     strategy's λₖ are not available per segment: its factors are taken
     as 1.
 
-    **Change flag.** The CUSUM test of Brown, Durbin & Evans (1975, §2.3),
+    **Change flag, tests with a p-value** (``change_test`` = ``"supF"``,
+    ``"re"``, ``"cusum"``, ``"cusum2"``): each device's test of
+    :func:`adaptid.diagnostics.change_tests` on its used samples (the
+    ordinary least-squares regression of the group, whatever ``method``):
+    Andrews' supF with Hansen's p-value, the fluctuation of recursive
+    estimates, the recursive CUSUM (strucchange's scale and p-value) or the
+    CUSUM of squares. ``change_stat`` is the statistic, ``change_pvalue``
+    its p-value, ``change`` the verdict after the control across devices
+    (``multiple``), and ``change_at`` the break date for a flagged device
+    (supF: the last sample before the break that maximises F; RE: the peak
+    of the process), as ``time`` or the 0-based position. The recursive
+    CUSUM has no power against a change of the coefficient of a zero-mean
+    regressor (its residuals keep mean zero): supF, RE have.
+
+    **Change flag, BDE crossing** (``"a-priori"``, ``"recursive"``; no
+    p-value, so no control across devices): the CUSUM test of Brown, Durbin & Evans (1975, §2.3),
     :func:`adaptid.diagnostics.cusum` with ``scale="ols"``: on m residuals
     :math:`e_j`,
     :math:`W_j = \sum_{i\le j} e_i/\hat\sigma`,
@@ -604,7 +677,7 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     and ``change_at`` the ``time`` (or the 0-based position in the group
     when ``time`` is None) of the first crossing, NaN if none.
 
-    * ``change_test="a-priori"`` (default, fast): :math:`e_j` are the
+    * ``change_test="a-priori"`` (fast): :math:`e_j` are the
       estimator's own a-priori errors :math:`\varepsilon_k = y_k -
       \varphi_k^T\hat\theta_{k-1}` after the first ``burn_in`` used samples.
       For RLS with λ = 1 and a diffuse prior,
@@ -656,6 +729,7 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     method = check_choice(method, "method", METHODS)
     check_choice(nan_policy, "nan_policy", ("raise", "skip"))
     change_test = check_choice(change_test, "change_test", _CHANGE_TESTS)
+    multiple = check_choice(multiple, "multiple", _MULTIPLE)
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
     kind, frame = _as_frame(data)
     phi, names = _check_columns(frame, kind, group=group, y=y, phi=phi, model=model, time=time)
@@ -678,7 +752,7 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
         if tracks is not None:
             os.makedirs(os.fspath(tracks), exist_ok=True)
         kwargs = dict(group=group, y=y, phi=phi, model=model, time=time, est=est,
-                      names=names, alpha_a=_bde_a(alpha), change_test=change_test,
+                      names=names, alpha_a=(_bde_a(alpha), alpha), change_test=change_test,
                       burn_in=burn_in, tracks=tracks, order_col=order_col)
         result = ddf.map_partitions(_identify_partition, enforce_metadata=False,
                                     meta=_result_meta(names, group, frame, kind), **kwargs)
@@ -690,7 +764,22 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     except TypeError:  # pragma: no cover - unorderable group labels
         pass
     out.index.name = group
+    if change_test in _PVALUE_TESTS:
+        _fleet_verdict(out, alpha, multiple)
     return out
+
+
+def _fleet_verdict(out, alpha, multiple):
+    """``change`` from the p-values of every device, with multiple-testing control;
+    ``change_at`` kept only for the devices flagged."""
+    p = out["change_pvalue"].to_numpy(dtype=float)
+    if multiple == "bh":
+        flag = _benjamini_hochberg(p, alpha)
+    else:
+        level = alpha / max(int(np.isfinite(p).sum()), 1) if multiple == "bonferroni" else alpha
+        flag = np.isfinite(p) & (p <= level)
+    out["change"] = flag
+    out.loc[~flag, "change_at"] = np.nan
 
 
 # ---------------------------------------------------------------- the steps
@@ -789,7 +878,7 @@ def _result_meta(names, group, frame, kind):
     cols.update(n_samples=pd.Series(dtype="int64"), n_skipped=pd.Series(dtype="int64"),
                 sigma2=pd.Series(dtype="float64"), rms=pd.Series(dtype="float64"),
                 change=pd.Series(dtype="bool"), change_stat=pd.Series(dtype="float64"),
-                change_at=pd.Series(dtype="float64"))
+                change_pvalue=pd.Series(dtype="float64"), change_at=pd.Series(dtype="float64"))
     if group in frame.columns:
         idx_dtype = frame[group].dtype if kind == "pandas" else frame._meta[group].dtype
     else:
