@@ -18,7 +18,7 @@ import numpy as np
 
 from ._validation import param_error
 
-__all__ = ["tracks", "prediction_errors", "cusum", "panel_axes", "compare", "resid"]
+__all__ = ["tracks", "prediction_errors", "cusum", "fstats", "panel_axes", "compare", "resid"]
 
 COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
 
@@ -226,7 +226,8 @@ def finish_errors_axes(ax, title, xlabel, ncol):
     ax.set_xlabel(xlabel)
 
 
-def cusum(x, result, *, title=None, xlabel="sample", ax=None):
+def cusum(x, result, *, title=None, xlabel="sample", ax=None,
+          label="CUSUM of recursive residuals"):
     r"""The CUSUM :math:`W_j` of the recursive residuals and its bounds (Brown, Durbin & Evans 1975).
 
     Parameters
@@ -248,15 +249,15 @@ def cusum(x, result, *, title=None, xlabel="sample", ax=None):
     x = np.asarray(x, dtype=float)
     fig, (a,), _ = _axes(ax, 1, lambda r: (11, 3.0))
     sl = decimate(len(x))
-    a.plot(x[sl], result.statistic[sl], color=COLORS[0], lw=1.1,
-           label="CUSUM of recursive residuals")
+    a.plot(x[sl], result.statistic[sl], color=COLORS[0], lw=1.1, label=label)
     a.plot(x[sl], result.upper[sl], "k--", lw=1, label=f"{100 * (1 - result.alpha):g} % bounds")
     a.plot(x[sl], result.lower[sl], "k--", lw=1)
     if result.first_crossing is not None:
         a.axvline(x[result.first_crossing], color=COLORS[1], lw=0.9, ls=":",
                   label="first crossing")
-    verdict = ("parameters not constant (bounds crossed)" if result.crossed
-               else "no evidence of change")
+    # this one test's verdict only: "no evidence of change" is for all tests to say
+    verdict = (f"{label}: bounds crossed" if result.crossed
+               else f"{label}: within its bounds")
     a.set_title(f"{title}: {verdict}" if title else verdict, fontsize=10, loc="left")
     a.grid(alpha=0.3)
     a.legend(fontsize=8, loc="upper left")
@@ -343,4 +344,50 @@ def resid(result, *, ax=None, fig=None):
         ax_.set_ylabel(f"corr. e, {name}")
     axes[-1].set_xlabel("lag (samples)")
     fig.tight_layout()
+    return fig
+
+
+def fstats(x, result, *, breaks=(), alpha=0.05, title=None, xlabel="sample", ax=None):
+    r"""The Chow F statistic of every candidate break date, supF's critical value, the breaks.
+
+    Parameters
+    ----------
+    x : array_like, shape (N,)
+        Abscissa of every sample (``x[result.candidates]`` are drawn).
+    result : FstatsResult
+        From :func:`adaptid.diagnostics.fstats` (Andrews 1993; Hansen 1997 p-values).
+    breaks : sequence of int
+        0-based last samples of the segments of a break dating
+        (:func:`adaptid.diagnostics.breakpoints`), drawn as vertical lines.
+    alpha : float
+        Level of the critical line.
+    title : str, optional
+    xlabel : str
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from scipy.optimize import brentq
+
+    from .diagnostics._pvalues import pvalue_fstats
+
+    x = np.asarray(x)
+    fig, (a,), _ = _axes(ax, 1, lambda r: (11, 3.0))
+    xc = x[result.candidates]
+    a.plot(xc, result.F, color=COLORS[0], lw=1.1, label="F statistics")
+    crit = brentq(lambda c: pvalue_fstats(c, "supF", result.n_params, result.lam) - alpha,
+                  1e-9, 1e4)
+    a.axhline(crit, color="k", ls="--", lw=1, label=f"supF {100 * (1 - alpha):g} % critical value")
+    for j, b in enumerate(breaks):
+        a.axvline(x[int(b)], color=COLORS[1], lw=1.0, ls=":",
+                  label="dated break (BIC)" if j == 0 else None)
+    t = result.test("supF")
+    verdict = (f"supF = {t.statistic:.3g}, p = {t.pvalue:.3g}: "
+               + ("a break" if t.pvalue < alpha else "no break"))
+    a.set_title(f"{title}: {verdict}" if title else verdict, fontsize=10, loc="left")
+    a.set_xlabel(xlabel)
+    a.grid(alpha=0.3)
+    a.legend(loc="best", fontsize=8, frameon=False)
     return fig

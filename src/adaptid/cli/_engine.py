@@ -329,9 +329,21 @@ def _fit_batch(title, names, Phi, y, index, spec, advance):
         rms_error=float(np.sqrt(np.mean(res.residuals ** 2))))
 
 
+#: break dating is O(N² n²) (Bai & Perron's programme): only up to this many samples
+MAX_BREAK_DATING = 20000
+
+
 def _cusum(Phi, y):
-    """CUSUM of the recursive residuals over the complete rows, or None."""
-    from adaptid.diagnostics import cusum, recursive_residuals
+    """The constancy tests of the report over the complete rows, or None.
+
+    CUSUM and CUSUM of squares of the recursive residuals, the F statistics
+    of every candidate break (supF), break dating by BIC (up to
+    :data:`MAX_BREAK_DATING` samples) and the battery of
+    :func:`adaptid.diagnostics.change_tests` whose ``no_change`` is the
+    report's verdict.
+    """
+    from adaptid.diagnostics import (breakpoints, change_tests, cusum, cusum_squares, fstats,
+                                     recursive_residuals)
 
     ok = np.isfinite(Phi).all(axis=1) & np.isfinite(y)
     Phi, y = Phi[ok], y[ok]
@@ -348,6 +360,17 @@ def _cusum(Phi, y):
         return None
     try:
         res = cusum(w[good])
+        squares = cusum_squares(w[good])
     except ValueError:
         return None
-    return {"rows": k[good], "result": res}
+    out = {"rows": k[good], "result": res, "squares": squares, "all_rows": rows,
+           "fstats": None, "breaks": (), "tests": None}
+    try:
+        out["tests"] = change_tests(Phi, y)
+        out["fstats"] = fstats(Phi, y)
+        if len(y) <= MAX_BREAK_DATING:
+            bp = breakpoints(Phi, y)
+            out["breaks"] = tuple(rows[np.asarray(bp.breakpoints, dtype=int)])
+    except ValueError:  # too short for the F tests: the CUSUMs alone
+        pass
+    return out

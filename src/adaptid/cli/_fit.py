@@ -181,7 +181,7 @@ def _print(output: Output, result, fits, physical):
 
 
 def _write_report(out, table, problem: Problem, fits: list, physical, result):
-    from ._report import Report, cusum_figure, errors_figure
+    from ._report import Report, constancy_figure, constancy_verdict, errors_figure
 
     rep = Report(out, f"adaptid fit: {Path(table.path).name}",
                  f"{problem.kind} model · {fits[0].label} · {result['n_samples']} samples · "
@@ -227,12 +227,16 @@ def _write_report(out, table, problem: Problem, fits: list, physical, result):
     rep.figure("errors.png", errors_figure(rows, xlabel=xlabel),
                "A-priori prediction errors ε = y − φᵀθ̂ (recursive) or residuals (batch).")
     rep.end()
-    items = [(f.title, xaxis(f.index[f.cusum["rows"]]), f.cusum["result"]) for f in fits
-             if f.cusum is not None]
-    if items:
-        rep.section("Parameter constancy (CUSUM)")
-        rep.figure("cusum.png", cusum_figure(items, xlabel=xlabel),
-                   "CUSUM of the recursive residuals (Brown, Durbin & Evans 1975) with its 95 % bounds.")
+    checked = [f for f in fits if f.cusum is not None]
+    if checked:
+        rep.section("Parameter constancy")
+        rep.figure("cusum.png", constancy_figure(checked, xaxis, xlabel=xlabel),
+                   "CUSUM and CUSUM of squares of the recursive residuals (Brown, Durbin & "
+                   "Evans 1975) with their 95 % bounds; the Chow F statistic of every "
+                   "candidate break date with supF's 95 % critical value (Andrews 1993, "
+                   "Hansen 1997 p-value) and the break dates chosen by BIC (Bai & Perron).")
+        for f in checked:
+            rep.note(f"{f.title}: {constancy_verdict(f.cusum)}")
         rep.end()
     estimates = []
     for f in fits:

@@ -20,7 +20,8 @@ import numpy as np
 
 from ._errors import CLIError
 
-__all__ = ["Report", "tracks_figure", "errors_figure", "cusum_figure"]
+__all__ = ["Report", "tracks_figure", "errors_figure", "cusum_figure", "constancy_figure",
+           "constancy_verdict"]
 
 
 _CSS = """
@@ -228,4 +229,45 @@ def cusum_figure(items, *, xlabel="sample"):
     axes = fig.subplots(len(items), 1, squeeze=False)[:, 0]
     for ax, (title, x, res) in zip(axes, items):
         plot.cusum(x, res, title=title, xlabel=xlabel, ax=ax)
+    return fig
+
+
+def constancy_verdict(checks) -> str:
+    """One sentence: "no evidence of change" only when every test shown agrees."""
+    tests = checks.get("tests")
+    if tests is None:
+        crossed = checks["result"].crossed or checks["squares"].crossed
+        return ("the CUSUM tests reject constant parameters" if crossed else
+                "no evidence of change in the CUSUM tests (too few samples for the F tests)")
+    if tests.no_change:
+        return "no evidence of change (CUSUM, CUSUM of squares, supF, RE and Nyblom–Hansen agree)"
+    which = ", ".join(tests.rejected)
+    dates = checks.get("breaks") or ()
+    when = f"; break(s) dated after sample(s) {', '.join(str(int(b)) for b in dates)}" \
+        if dates else ""
+    return f"parameters not constant: rejected by {which} at 5 %{when}"
+
+
+def constancy_figure(fits, xaxis, *, xlabel="sample"):
+    """Per fit: CUSUM, CUSUM of squares and the F statistics with the dated breaks."""
+    from adaptid import plot
+
+    _require_matplotlib()
+    fig = plot.new_figure((11, 2.6 * 3 * len(fits) + 0.4))
+    axes = fig.subplots(3 * len(fits), 1, squeeze=False)[:, 0]
+    for i, f in enumerate(fits):
+        c = f.cusum
+        x = xaxis(f.index[c["rows"]])
+        a1, a2, a3 = axes[3 * i: 3 * i + 3]
+        plot.cusum(x, c["result"], title=f.title, xlabel=xlabel, ax=a1)
+        plot.cusum(x, c["squares"], title=f.title, xlabel=xlabel, ax=a2,
+                   label="CUSUM of squares")
+        if c["fstats"] is not None:
+            xs = xaxis(f.index)
+            pos = {int(r): j for j, r in enumerate(c["all_rows"])}
+            xf = np.asarray(xs)[c["all_rows"]]
+            plot.fstats(xf, c["fstats"], breaks=[pos[int(b)] for b in c["breaks"]],
+                        title=f.title, xlabel=xlabel, ax=a3)
+        else:
+            a3.set_visible(False)
     return fig
