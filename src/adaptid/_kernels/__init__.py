@@ -18,7 +18,10 @@ from typing import NamedTuple
 
 __all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "tags"]
 
+from ._cache import install as _install_cache
 from ._dims import tags
+
+_install_cache()  # before any kernel module is imported (they are submodules of this package)
 
 
 class Entries(NamedTuple):

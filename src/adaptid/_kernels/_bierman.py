@@ -152,7 +152,8 @@ def _bierman_apply_pairs(U, D, r, f, v, b, NP):
         j += 2
     if j < NP:
         an = a + f[j] * v[j]
-        D[j] = D[j] * (a / an)
+        ian = 1.0 / an
+        D[j] = D[j] * (a * ian)
         pj = -f[j] * ia
         vj = v[j]
         for i in range(j):
