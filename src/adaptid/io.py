@@ -122,6 +122,15 @@ class Table:
                            f"{int(bad.sum())} such row(s)")
         return x
 
+    def is_datetime(self, name: str) -> bool:
+        """True if column ``name`` holds date-times (:meth:`column` gives them as epoch seconds)."""
+        import pandas as pd
+
+        if self.names.count(name) != 1:
+            return False
+        values = self._get[name]()
+        return bool(pd.api.types.is_datetime64_any_dtype(getattr(values, "dtype", None)))
+
     def columns(self, names, option: str) -> np.ndarray:
         """Several columns as one float64 array, shape (N, len(names))."""
         cols = [self.column(n, option) for n in names]

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperGroup, TyperOption
 
 try:  # typer >= 0.20 vendors click as typer._click
     from typer._click import exceptions as _clickx
@@ -54,6 +54,27 @@ class _OneLineErrors(TyperGroup):
             return rv
         sys.exit(rv if isinstance(rv, int) else 0)
 
+
+def _no_flag_metavar():
+    """Flags (``--json``, ``--dc-motor``, ...) take no value: show no ``<bool>`` in --help.
+
+    typer labels every option with its type; for an on/off flag that label
+    suggests a value to type. Wrapped once, for this process's help output.
+    """
+    if getattr(TyperOption.display_type_rich, "_adaptid", False):
+        return
+    original = TyperOption.display_type_rich
+
+    def display_type_rich(self, ctx):
+        if getattr(self, "is_flag", False) and getattr(self, "is_bool_flag", True):
+            return None
+        return original(self, ctx)
+
+    display_type_rich._adaptid = True
+    TyperOption.display_type_rich = display_type_rich
+
+
+_no_flag_metavar()
 
 app = typer.Typer(
     cls=_OneLineErrors,
