@@ -23,6 +23,12 @@ __all__ = ["tracks", "prediction_errors", "cusum", "panel_axes", "compare", "res
 COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
 
 
+def _abscissa(x):
+    """The x values: date-times stay ``datetime64`` (matplotlib draws a date axis), else float."""
+    x = np.asarray(x)
+    return x if x.dtype.kind == "M" else x.astype(float)
+
+
 def new_figure(figsize):
     """An Agg-backed ``matplotlib.figure.Figure`` (ImportError names the extra)."""
     try:
@@ -120,7 +126,7 @@ def tracks(x, theta, names=None, *, band=None, band_at=None, truth=None, label=N
     -------
     matplotlib.figure.Figure
     """
-    x = np.asarray(x, dtype=float)
+    x = _abscissa(x)
     th = np.asarray(theta, dtype=float)
     th = th[:, None] if th.ndim == 1 else th
     n = th.shape[1]
@@ -198,7 +204,7 @@ def prediction_errors(x, error, *, label=None, title=None, xlabel="sample", colo
     -------
     matplotlib.figure.Figure
     """
-    x = np.asarray(x, dtype=float)
+    x = _abscissa(x)
     e = np.asarray(error, dtype=float)
     fig, (a,), fresh = _axes(ax, 1, lambda r: (11, 2.8))
     sl = decimate(len(x))
@@ -245,7 +251,7 @@ def cusum(x, result, *, title=None, xlabel="sample", ax=None):
     -------
     matplotlib.figure.Figure
     """
-    x = np.asarray(x, dtype=float)
+    x = _abscissa(x)
     fig, (a,), _ = _axes(ax, 1, lambda r: (11, 3.0))
     sl = decimate(len(x))
     a.plot(x[sl], result.statistic[sl], color=COLORS[0], lw=1.1,
