@@ -139,6 +139,19 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     if out is not None:
         result["report"] = str(_write_report(out, table, problem, fits, physical, result,
                                              checks=checks))
+    _write_outputs(result, problem, fits, tracks=tracks, export_c=export_c, c_name=c_name,
+                   float32=float32)
+    if save_state is not None:  # last, after everything else succeeded (save_state is atomic)
+        try:
+            fits[0].estimator.save_state(save_state)
+        except OSError as err:
+            raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err})") from None
+    _print(output, result, fits, physical, summ)
+    return result
+
+
+def _write_outputs(result, problem, fits, *, tracks, export_c, c_name, float32):
+    """--tracks FILE and --export-c DIR (after the fit and the report)."""
     if tracks is not None:
         from ..io import write_table
         from ._modelfit import tracks_frame
@@ -152,14 +165,7 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
         from ._export import write_c
 
         result["export_c"] = [str(p) for p in write_c(fits[0].estimator, export_c, c_name, float32,
-                                                          option="--export-c")]
-    if save_state is not None:  # last, after everything else succeeded (save_state is atomic)
-        try:
-            fits[0].estimator.save_state(save_state)
-        except OSError as err:
-            raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err})") from None
-    _print(output, result, fits, physical, summ)
-    return result
+                                                      option="--export-c")]
 
 
 def _workflow(problem, structure, fits, fitted_models, *, want_figures) -> dict:
@@ -293,24 +299,8 @@ def _print(output: Output, result, fits, physical, summ=None):
     output.detail(f"done in {result['elapsed_s']:.2f} s", markup=False, soft_wrap=True)
 
 
-def _write_report(out, table, problem: Problem, fits: list, physical, result, checks=None):
-    from ._report import Report, cusum_figure, errors_figure
-
-    rep = Report(out, f"adaptid fit: {Path(table.path).name}",
-                 f"{problem.kind} model · {fits[0].label} · {result['n_samples']} samples · "
-                 f"{result['n_skipped']} skipped · nan policy {result['nan_policy']}")
-    rep.section("Estimates")
-    for f in fits:
-        if len(fits) > 1:
-            rep.note(f"{f.title} equation")
-        rep.table(["parameter", "estimate", "stderr", "−2σ", "+2σ"],
-                  [[n, th, se, th - 2 * se, th + 2 * se] for n, th, se in zip(f.names, f.theta, f.stderr)])
-    if physical is not None:
-        rep.note("physical parameters (delta method from both equations)")
-        rep.table(["parameter", "estimate", "stderr"], [[k, v, se] for k, (v, se) in physical.items()])
-    rep.warnings(result["warnings"])
-    rep.end()
-    checks = checks or {}
+def _report_checks(rep, checks):
+    """The report's validation table and compare/resid figures (model fits)."""
     if "validation" in checks:
         from ._modelfit import validation_rows
 
@@ -345,6 +335,26 @@ def _write_report(out, table, problem: Problem, fits: list, physical, result, ch
                    "data and their cross-correlation with each input, with the "
                    f"{100 * (1 - res.alpha):g} % band (adaptid.models.resid).")
         rep.end()
+
+
+def _write_report(out, table, problem: Problem, fits: list, physical, result, checks=None):
+    from ._report import Report, cusum_figure, errors_figure
+
+    rep = Report(out, f"adaptid fit: {Path(table.path).name}",
+                 f"{problem.kind} model · {fits[0].label} · {result['n_samples']} samples · "
+                 f"{result['n_skipped']} skipped · nan policy {result['nan_policy']}")
+    rep.section("Estimates")
+    for f in fits:
+        if len(fits) > 1:
+            rep.note(f"{f.title} equation")
+        rep.table(["parameter", "estimate", "stderr", "−2σ", "+2σ"],
+                  [[n, th, se, th - 2 * se, th + 2 * se] for n, th, se in zip(f.names, f.theta, f.stderr)])
+    if physical is not None:
+        rep.note("physical parameters (delta method from both equations)")
+        rep.table(["parameter", "estimate", "stderr"], [[k, v, se] for k, (v, se) in physical.items()])
+    rep.warnings(result["warnings"])
+    rep.end()
+    _report_checks(rep, checks or {})
 
     use_time = problem.time is not None
     xlabel = (problem.time_name or "time") if use_time else "sample"

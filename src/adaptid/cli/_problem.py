@@ -191,18 +191,6 @@ def _nan_check(table: Table, cols: dict, nan_policy: str) -> int:
     return count
 
 
-def _y_and_columns(table: Table, s: Structure, names, option: str, nan_policy: str):
-    """The --y column, the columns ``names`` of ``option``, --time, and the NaN rows."""
-    cols = table.expand(names, option)
-    y = table.column(s.y, "--y")
-    X = table.columns(cols, option)
-    if len(y) != len(X):
-        raise CLIError(f"{table.path}: --y column {s.y!r} has {len(y)} rows, {option} columns {len(X)}")
-    time = table.column(s.time, "--time") if s.time is not None else None
-    nan = _nan_check(table, {s.y: y, **{n: X[:, j] for j, n in enumerate(cols)}}, nan_policy)
-    return cols, y, X, time, nan
-
-
 def _time_axis(table: Table, s: Structure):
     """The --time column: (values for axes and files, is_datetime); datetime64 for date-times."""
     if s.time is None:
