@@ -300,31 +300,36 @@ DRIVER = r"""
 int main(void)
 {
     @name@_t s;
-    double phi[@N@], y, th[@N@];
+    @real@ phi[@N@], th[@N@];
+    double v, y;
     int i;
     @name@_init(&s);
     @name@_theta(&s, th);
-    for (i = 0; i < @N@; i++) printf("%.17g ", th[i]);
+    for (i = 0; i < @N@; i++) printf("%.17g ", (double)th[i]);
     printf("\n");
     for (;;) {
-        for (i = 0; i < @N@; i++) if (scanf("%lf", &phi[i]) != 1) goto done;
+        for (i = 0; i < @N@; i++) {
+            if (scanf("%lf", &v) != 1) goto done;
+            phi[i] = (@real@)v;
+        }
         if (scanf("%lf", &y) != 1) goto done;
-        (void)@name@_update(&s, phi, y);
+        (void)@name@_update(&s, phi, (@real@)y);
     }
 done:
     @name@_theta(&s, th);
-    for (i = 0; i < @N@; i++) printf("%.17g ", th[i]);
+    for (i = 0; i < @N@; i++) printf("%.17g ", (double)th[i]);
     printf("\n");
     return 0;
 }
 """
 
 
-def _compile_and_run(folder, name, n, rows):
+def _compile_and_run(folder, name, n, rows, real="double"):
     gcc = shutil.which("gcc")
     if gcc is None:  # a failure, not a skip: .ci/run installs gcc (tools/system-deps.sh)
         pytest.fail("gcc not found (see .ci/run)")
-    (folder / "drv.c").write_text(DRIVER.replace("@name@", name).replace("@N@", str(n)))
+    (folder / "drv.c").write_text(DRIVER.replace("@name@", name).replace("@N@", str(n))
+                                  .replace("@real@", real))
     exe = folder / "drv"
     res = subprocess.run([gcc, *CFLAGS, "-I", str(folder), str(folder / "drv.c"),
                           str(folder / f"{name}.c"), "-o", str(exe), "-lm"],
@@ -369,6 +374,17 @@ def test_export_c_arx_state(dryer, tmp_path):
     np.testing.assert_array_equal(first, out["theta"])
 
 
+def test_export_c_float32(dryer, tmp_path):
+    path, u, y, _ = dryer
+    cdir = tmp_path / "f32"
+    out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--export-c", cdir,
+                   "--c-name", "dryer", "--float32")
+    assert "float" in (cdir / "dryer.h").read_text()
+    first, _ = _compile_and_run(cdir, "dryer", 4, [], real="float")
+    # θ stored in single precision: the printed estimate rounded to float32
+    np.testing.assert_array_equal(first, np.float32(out["theta"]).astype(float))
+
+
 # ---------------------------------------------------------------------- errors
 @pytest.mark.parametrize("extra, needle", [
     (["--detrend", "quadratic"], "--detrend must be constant or linear"),
@@ -408,6 +424,14 @@ def test_refused_combinations(dryer, tmp_path, monkeypatch, structure, extra, ne
     assert line.startswith("adaptid: error: ") and needle in line
 
 
+def test_tracks_is_not_the_data_file(dryer, tmp_path):
+    path, *_ = dryer
+    before = path.read_bytes()
+    r = run("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--tracks", path)
+    assert r.exit_code == 2 and "is the data file" in r.stderr
+    assert path.read_bytes() == before
+
+
 def test_missing_values_with_validate_refused(tmp_path):
     path = tmp_path / "gap.csv"
     pd.DataFrame({"u": np.arange(50.0), "y": np.r_[np.arange(20.0), np.nan, np.arange(29.0)]}) \
@@ -425,3 +449,40 @@ def test_help_shows_no_bool_metavar():
     for flag in ("--intercept", "--summary", "--tracks", "--detrend", "--validate", "--export-c",
                  "--ar", "--arma", "--bj"):
         assert flag in r.stdout
+
+
+def test_validate_static_regression(tmp_path, rng):
+    """--phi --validate: fit % of the prediction Φθ on the held-out rows, Ljung-Box of y - Φθ."""
+    from statsmodels.stats.diagnostic import acorr_ljungbox
+
+    N = 600
+    X = rng.standard_normal((N, 2))
+    yv = X @ [2.0, -1.0] + 0.3 * rng.standard_normal(N)
+    path = tmp_path / "reg.csv"
+    pd.DataFrame({"x1": X[:, 0], "x2": X[:, 1], "y": yv}).to_csv(path, index=False,
+                                                                 float_format="%.17g")
+    out = run_json("fit", path, "--y", "y", "--phi", "x1,x2", "--method", "batch", "--validate", "0.5")
+    th = np.linalg.lstsq(X[:300], yv[:300], rcond=None)[0]
+    np.testing.assert_allclose(out["theta"], th, rtol=1e-10)
+    v = out["validation"]
+    assert v["fit_kind"] == "prediction (regression)"
+    e = yv[300:] - X[300:] @ th
+    assert v["fit_percent"] == pytest.approx(nrmse(yv[300:], X[300:] @ th), rel=1e-10)
+    lb = acorr_ljungbox(e, lags=[25], return_df=True)["lb_pvalue"].iloc[0]
+    assert v["ljung_box_p"] == pytest.approx(lb, rel=1e-8)
+    assert v["white"] and set(v["cross_correlation_p"]) == {"x1", "x2"}
+
+
+def test_tracks_dc_motor_two_equations(tmp_path):
+    data, _ = adaptid.datasets.dc_motor(seed=1, duration=2.0)
+    path = tmp_path / "motor.csv"
+    data.to_csv(path, index=False, float_format="%.17g")
+    tracks = tmp_path / "motor_tracks.csv"
+    out = run_json("fit", path, "--dc-motor", "--tracks", tracks)
+    df = pd.read_csv(tracks)
+    names = out["names"]                      # "electrical:R", ... as printed
+    assert list(df.columns[:2]) == ["sample", "time"]
+    assert set(names) <= set(df.columns)
+    last = df[names].ffill().iloc[-1].to_numpy()
+    np.testing.assert_allclose(last, out["theta"], rtol=1e-15)
+    np.testing.assert_allclose(df["time"], data["time"].to_numpy()[df["sample"]], rtol=0, atol=0)

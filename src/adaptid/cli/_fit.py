@@ -85,6 +85,10 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     _check_extras(structure, spec, save_state=save_state, resume=resume, tracks=tracks,
                   export_c=export_c, c_name=c_name)
     check_outputs(data, out=out, save_state=save_state, resume=resume)
+    for opt, target in (("--tracks", tracks), ("--export-c", export_c)):
+        if target is not None and os.path.exists(target) and os.path.exists(data) \
+                and os.path.samefile(target, data):
+            raise CLIError(f"{opt} {target} is the data file; choose another name")
     est0 = _load_resume(resume) if resume is not None else None
 
     table = read_table(data)

@@ -111,6 +111,8 @@ def _n_params(problem, s, m):
 class _Static:
     """A --phi regression y = φᵀθ as a model for compare/resid (its simulation is its prediction)."""
 
+    fit_kind = "prediction (regression)"
+
     def __init__(self, theta, label):
         self.theta, self.index, self.label = np.asarray(theta), np.array([0]), label
 
@@ -200,7 +202,7 @@ def validate(data, model, k, label, *, what):
     out = {
         "n_samples": len(data),
         "fit_percent": float(cmp.fit[0]),
-        "fit_kind": "simulation" if k is None else f"{k}-step prediction",
+        "fit_kind": getattr(model, "fit_kind", "simulation" if k is None else f"{k}-step prediction"),
         "ljung_box_p": float(res.autocorrelation["p_value"]),
         "max_lag": int(lags),
         "alpha": RESID_ALPHA,
