@@ -219,3 +219,29 @@ def test_bad_orders_one_line(bj_record, tmp_path, monkeypatch, args, needle):
     (line,) = r.stderr.strip().splitlines()
     assert line.startswith("adaptid: error: ") and needle in line, line
     assert not (tmp_path / "s.npz").exists()
+
+
+def test_time_series_models_in_compare_resid_summary(series):
+    """AR/ARMA in compare(k=1), resid and summary() (they call predict(y, u, k=k); before this
+    change a TypeError). Oracles: the AR one-step predictor written out, statsmodels' Ljung-Box."""
+    from statsmodels.stats.diagnostic import acorr_ljungbox
+
+    _, y = series
+    data = adaptid.IDData(y, y_names="level")
+    est, val = data.split(0.5)
+    m = models.AR(2).fit(est.y)
+    a1, a2 = m.theta
+    yv = val.y
+    yhat = np.zeros(len(yv))              # zero before the first sample
+    yhat[1] = -a1 * yv[0]
+    yhat[2:] = -a1 * yv[1:-1] - a2 * yv[:-2]
+    fit = 100 * (1 - np.linalg.norm(yv - yhat) / np.linalg.norm(yv - yv.mean()))
+    assert models.compare(val, m, k=1).fit[0] == pytest.approx(fit, rel=1e-10)
+    r = models.resid(val, m)
+    lb = acorr_ljungbox((yv - yhat)[2:], lags=[25], return_df=True)["lb_pvalue"].iloc[0]
+    assert r.autocorrelation["p_value"] == pytest.approx(lb, rel=1e-8)
+    assert r.cross_correlation == [] and r.u_names == ()
+    s = m.summary()
+    assert "inputs: none" in s.notes[0] and "fit % (simulation, estimation)" not in s.stats
+    with pytest.raises(TypeError, match="u must be None"):
+        m.predict(yv, np.ones(len(yv)), k=1)
