@@ -115,8 +115,8 @@ class Structure:
         if kind in ("arx", "fir", "bj") and self.u is None:
             raise CLIError(f"{chosen[0]} needs --u COL (the input column)")
         if kind in ("phi", "ar", "arma") and self.u is not None:
-            raise CLIError(f"--u applies to --arx, --fir or --bj, not {chosen[0]} "
-                           + ("(a time-series model has no input)" if kind != "phi" else ""))
+            raise CLIError(f"--u applies to --arx, --fir or --bj, not {chosen[0]}"
+                           + (" (a time-series model has no input)" if kind != "phi" else ""))
         for opt, lab, orders in (("--ar", "na", self.ar), ("--arma", "na", self.arma)):
             if orders is not None and orders[0] < 1:
                 raise CLIError(f"{opt}: {lab} must be >= 1, got {orders[0]}")
