@@ -23,6 +23,24 @@ __all__ = ["tracks", "prediction_errors", "cusum", "fstats", "panel_axes", "comp
 COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
 
 
+def _abscissa(x):
+    """The x values: date-times stay ``datetime64`` (matplotlib draws a date axis), else float."""
+    x = np.asarray(x)
+    return x if x.dtype.kind == "M" else x.astype(float)
+
+
+def _date_axis(ax, x):
+    """For date-time abscissae: at most 6 date ticks, slanted, so narrow panels stay legible."""
+    if np.asarray(x).dtype.kind != "M":
+        return
+    import matplotlib.dates as mdates
+
+    loc = mdates.AutoDateLocator(minticks=3, maxticks=6)
+    ax.xaxis.set_major_locator(loc)
+    ax.xaxis.set_major_formatter(mdates.AutoDateFormatter(loc))
+    ax.tick_params(axis="x", labelrotation=20)
+
+
 def new_figure(figsize):
     """An Agg-backed ``matplotlib.figure.Figure`` (ImportError names the extra)."""
     try:
@@ -120,7 +138,7 @@ def tracks(x, theta, names=None, *, band=None, band_at=None, truth=None, label=N
     -------
     matplotlib.figure.Figure
     """
-    x = np.asarray(x, dtype=float)
+    x = _abscissa(x)
     th = np.asarray(theta, dtype=float)
     th = th[:, None] if th.ndim == 1 else th
     n = th.shape[1]
@@ -152,9 +170,11 @@ def tracks(x, theta, names=None, *, band=None, band_at=None, truth=None, label=N
         a.set_title(names[j], fontsize=10, loc="left")
         a.set_ylabel(names[j])
         a.grid(alpha=0.3)
+        _date_axis(a, x)
         spec = a.get_subplotspec()
         if spec is None or spec.is_last_row() or not _below_is_visible(a):
             a.set_xlabel(xlabel)
+            a.xaxis.set_tick_params(labelbottom=True)   # the last panel of its column
     if fresh and label is not None:
         fig.legend(*axes[0].get_legend_handles_labels(), loc="outside upper center",
                    ncol=2, fontsize=9, frameon=False)
@@ -198,11 +218,12 @@ def prediction_errors(x, error, *, label=None, title=None, xlabel="sample", colo
     -------
     matplotlib.figure.Figure
     """
-    x = np.asarray(x, dtype=float)
+    x = _abscissa(x)
     e = np.asarray(error, dtype=float)
     fig, (a,), fresh = _axes(ax, 1, lambda r: (11, 2.8))
     sl = decimate(len(x))
     a.plot(x[sl], e[sl], color=color or COLORS[0], lw=0.7, alpha=0.85, label=label)
+    _date_axis(a, x)
     if fresh:
         symmetric_limits(a, [e])
         finish_errors_axes(a, title, xlabel, 1)
@@ -246,7 +267,7 @@ def cusum(x, result, *, title=None, xlabel="sample", ax=None,
     -------
     matplotlib.figure.Figure
     """
-    x = np.asarray(x, dtype=float)
+    x = _abscissa(x)
     fig, (a,), _ = _axes(ax, 1, lambda r: (11, 3.0))
     sl = decimate(len(x))
     a.plot(x[sl], result.statistic[sl], color=COLORS[0], lw=1.1, label=label)
@@ -259,6 +280,7 @@ def cusum(x, result, *, title=None, xlabel="sample", ax=None,
     verdict = (f"{label}: bounds crossed" if result.crossed
                else f"{label}: within its bounds")
     a.set_title(f"{title}: {verdict}" if title else verdict, fontsize=10, loc="left")
+    _date_axis(a, x)
     a.grid(alpha=0.3)
     a.legend(fontsize=8, loc="upper left")
     a.set_xlabel(xlabel)

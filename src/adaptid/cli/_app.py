@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperGroup, TyperOption
 
 try:  # typer >= 0.20 vendors click as typer._click
     from typer._click import exceptions as _clickx
@@ -54,6 +54,27 @@ class _OneLineErrors(TyperGroup):
             return rv
         sys.exit(rv if isinstance(rv, int) else 0)
 
+
+def _no_flag_metavar():
+    """Flags (``--json``, ``--dc-motor``, ...) take no value: show no ``<bool>`` in --help.
+
+    typer labels every option with its type; for an on/off flag that label
+    suggests a value to type. Wrapped once, for this process's help output.
+    """
+    if getattr(TyperOption.display_type_rich, "_adaptid", False):
+        return
+    original = TyperOption.display_type_rich
+
+    def display_type_rich(self, ctx):
+        if getattr(self, "is_flag", False) and getattr(self, "is_bool_flag", True):
+            return None
+        return original(self, ctx)
+
+    display_type_rich._adaptid = True
+    TyperOption.display_type_rich = display_type_rich
+
+
+_no_flag_metavar()
 
 app = typer.Typer(
     cls=_OneLineErrors,
@@ -173,6 +194,42 @@ def fit(
                                                rich_help_panel="Model")] = None,
     fir_: Annotated[Optional[str], typer.Option("--fir", metavar="NB,NK", help="FIR model orders.",
                                                 rich_help_panel="Model")] = None,
+    ar: Annotated[Optional[str], typer.Option("--ar", metavar="NA", help="AR time-series model "
+                                              "A(q)y = e of the --y column.",
+                                              rich_help_panel="Model")] = None,
+    arma: Annotated[Optional[str], typer.Option("--arma", metavar="NA,NC", help="ARMA time-series "
+                                                "model A(q)y = C(q)e (recursive: extended least "
+                                                "squares).", rich_help_panel="Model")] = None,
+    bj: Annotated[Optional[str], typer.Option("--bj", metavar="NB,NC,ND,NF,NK", help="Box-Jenkins "
+                                              "model y = B/F u + C/D e, the orders for every --u "
+                                              "input (recursive: pseudo-linear regression).",
+                                              rich_help_panel="Model")] = None,
+    intercept: Annotated[bool, typer.Option("--intercept", help="--arx/--fir: add a constant "
+                                            "parameter (regressor 1), named 'intercept'.",
+                                            rich_help_panel="Model")] = False,
+    detrend: Annotated[Optional[str], typer.Option("--detrend", metavar="constant|linear",
+                                                   help="Remove each signal's mean or straight "
+                                                   "line first (adaptid.IDData.detrend).",
+                                                   rich_help_panel="Workflow")] = None,
+    validate: Annotated[Optional[float], typer.Option("--validate", metavar="FRACTION",
+                                                      help="Estimate on the first FRACTION of the "
+                                                      "record; fit % and residual tests on the "
+                                                      "rest.", rich_help_panel="Workflow")] = None,
+    summary: Annotated[bool, typer.Option("--summary", help="Print the summary table (stderr, t, "
+                                          "p, limits, AIC, BIC, residual tests).",
+                                          rich_help_panel="Workflow")] = False,
+    tracks: Annotated[Optional[Path], typer.Option("--tracks", metavar="FILE", help="Write the "
+                                                   "estimates after each sample, with the time "
+                                                   "column (.csv or .parquet).",
+                                                   rich_help_panel="Workflow")] = None,
+    export_c: Annotated[Optional[Path], typer.Option("--export-c", metavar="DIR", help="Write the "
+                                                     "fitted estimator as C99 code (NAME.h, NAME.c) "
+                                                     "that continues from the final state.",
+                                                     rich_help_panel="Workflow")] = None,
+    c_name: Annotated[str, typer.Option("--c-name", help="--export-c: C identifier (file name and "
+                                        "prefix).", rich_help_panel="Workflow")] = "rls",
+    float32: Annotated[bool, typer.Option("--float32", help="--export-c: single precision.",
+                                          rich_help_panel="Workflow")] = False,
     dc_motor: Annotated[bool, typer.Option("--dc-motor", help="DC-motor physics: electrical and mechanical "
                                            "equations from time, voltage, current, speed.",
                                            rich_help_panel="Model")] = False,
@@ -231,15 +288,20 @@ def fit(
         structure = Structure(
             y=y, phi=split_names(phi, "--phi"), u=split_names(u, "--u"),
             arx=parse_orders(arx, "--arx", ("na", "nb", "nk")),
-            fir=parse_orders(fir_, "--fir", ("nb", "nk")), dc_motor=dc_motor, time=time,
-            voltage=voltage, current=current, speed=speed, cutoff=cutoff,
-            speed_kind=None if speed_kind is None else speed_kind.strip().lower())
+            fir=parse_orders(fir_, "--fir", ("nb", "nk")),
+            ar=parse_orders(ar, "--ar", ("na",)), arma=parse_orders(arma, "--arma", ("na", "nc")),
+            bj=parse_orders(bj, "--bj", ("nb", "nc", "nd", "nf", "nk")), dc_motor=dc_motor,
+            time=time, voltage=voltage, current=current, speed=speed, cutoff=cutoff,
+            speed_kind=None if speed_kind is None else speed_kind.strip().lower(),
+            intercept=intercept, detrend=None if detrend is None else detrend.strip().lower(),
+            validate=validate)
         if method is not None:
             method = method.strip().lower()
         spec = MethodSpec(method=method, forgetting=forgetting, window=window,
                           process_cov=process_cov, noise_var=noise_var, P0=p0)
         result = run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
-                         save_state=save_state, resume=resume, output=out)
+                         save_state=save_state, resume=resume, output=out, tracks=tracks,
+                         summary=summary, export_c=export_c, c_name=c_name, float32=float32)
         if out.json:
             out.emit_json(result)
 

@@ -13,24 +13,30 @@ import typer
 
 from ._errors import CLIError
 
-__all__ = ["register", "export_c"]
+__all__ = ["register", "export_c", "write_c"]
 
 
 def export_c(state_file: Path, out: Path, name: str = "rls", float32: bool = False):
     """Load ``state_file`` and write the C files; returns their paths. Errors: CLIError."""
     from adaptid import load_state
-    from adaptid.codegen import to_c
 
     try:
         est = load_state(state_file)
     except ValueError as err:  # StateFileError: unreadable, damaged, not a state file
         raise CLIError(str(err)) from None
+    return write_c(est, out, name, float32)
+
+
+def write_c(est, out: Path, name: str = "rls", float32: bool = False, option: str = "--out"):
+    """Write ``est``'s C files (:func:`adaptid.codegen.to_c`); returns their paths. Errors: CLIError."""
+    from adaptid.codegen import to_c
+
     try:
         return to_c(est, out, name=name, dtype="float32" if float32 else "float64")
     except (ValueError, TypeError) as err:
         raise CLIError(str(err)) from None
     except OSError as err:
-        raise CLIError(f"--out {str(out)!r} cannot be written: {err.strerror or err}") from None
+        raise CLIError(f"{option} {str(out)!r} cannot be written: {err.strerror or err}") from None
 
 
 def register(app: typer.Typer, output, guard):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time as _time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -29,8 +30,47 @@ def _load_resume(path):
         raise CLIError(f"--resume: {err}") from None
 
 
+def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume, tracks,
+                  export_c, c_name):
+    """Combinations of the workflow options (--tracks, --export-c, --arma/--bj) that cannot work."""
+    kind = structure.kind
+    if kind in ("arma", "bj") and (save_state is not None or resume is not None):
+        raise CLIError(f"--save-state/--resume are not available with --{kind}: its recursion "
+                       "(pseudo-linear regression on filtered signals) has more state than an "
+                       "estimator's")
+    if tracks is not None and spec.resolved == "batch" and resume is None:
+        raise CLIError("--tracks needs a recursive method (rls, window, kalman): --method batch "
+                       "has one estimate, no per-sample track")
+    if export_c is not None:
+        if spec.resolved == "batch" and resume is None:
+            raise CLIError("--export-c needs a recursive method (rls, window, kalman): --method "
+                           "batch has no estimator to continue in C")
+        if kind in ("arma", "bj"):
+            raise CLIError(f"--export-c is not available with --{kind}: its recursion filters the "
+                           "regressors with the running estimate (pseudo-linear regression), not "
+                           "a plain estimator run; export an --arx, --fir, --ar or --phi fit")
+        if kind == "dc-motor":
+            raise CLIError("--export-c is not available with --dc-motor (two estimators on "
+                           "filtered derivatives); use --y/--phi with the regressor columns")
+        if not c_name.isidentifier() or not c_name.isascii():
+            raise CLIError(f"--c-name must be a C identifier (letters, digits, _), got {c_name!r}")
+    elif c_name != "rls":
+        raise CLIError("--c-name applies with --export-c DIR only")
+    if tracks is not None:
+        from ..io import check_writable
+
+        low = str(tracks).lower()
+        if not low.endswith((".csv", ".parquet", ".pq")):
+            raise CLIError(f"--tracks {tracks}: the name must end in .csv or .parquet")
+        try:
+            check_writable(tracks, what="--tracks")
+        except ValueError as err:
+            raise CLIError(f"--tracks: {err}") from None
+
+
 def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
-            save_state=None, resume=None, output: Output) -> dict:
+            save_state=None, resume=None, output: Output, tracks=None, summary=False,
+            export_c=None, c_name="rls", float32=False) -> dict:
     """The whole ``fit`` command; returns the JSON-ready result."""
     t0 = _time.perf_counter()
     structure.check()
@@ -40,7 +80,15 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     if structure.kind == "dc-motor" and (save_state is not None or resume is not None):
         raise CLIError("--save-state/--resume are not available with --dc-motor (two estimators "
                        "and filtered derivatives); use --y/--phi with the regressor columns")
+    if float32 and export_c is None:
+        raise CLIError("--float32 applies with --export-c DIR only")
+    _check_extras(structure, spec, save_state=save_state, resume=resume, tracks=tracks,
+                  export_c=export_c, c_name=c_name)
     check_outputs(data, out=out, save_state=save_state, resume=resume)
+    for opt, target in (("--tracks", tracks), ("--export-c", export_c)):
+        if target is not None and os.path.exists(target) and os.path.exists(data) \
+                and os.path.samefile(target, data):
+            raise CLIError(f"{opt} {target} is the data file; choose another name")
     est0 = _load_resume(resume) if resume is not None else None
 
     table = read_table(data)
@@ -54,11 +102,19 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
         if len(y) == 0:
             raise CLIError(f"{table.path}: no samples left for the {title} regression "
                            f"({problem.n_rows} rows in the file)")
-    want_cusum = out is not None
+    want_cusum = out is not None and problem.kind not in ("arma", "bj")
     total = sum(len(eq[3]) for eq in problem.equations)
-    fits = []
+    fits, fitted_models = [], {}
     with output.progress(total, f"fitting ({spec.resolved})") as advance:
         for title, names, Phi, y, index in problem.equations:
+            if Phi is None:  # --arma / --bj: the models' fit / fit_recursive
+                from ._modelfit import fit_model_equation
+
+                f, model = fit_model_equation(problem, structure, spec, nan_policy=policy,
+                                              advance=advance)
+                fitted_models[f.title] = model
+                fits.append(f)
+                continue
             fits.append(fit_equation(title, names, Phi, y, index, spec, nan_policy=policy,
                                      est=est0, n_chunks=N_CHUNKS, advance=advance,
                                      want_cusum=want_cusum))
@@ -72,16 +128,71 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
         physical = physical_estimates(problem.regs, fits[0], fits[1])
 
     result = _result(table, problem, fits, spec, physical, nan)
+    if structure.detrend is not None:
+        result["detrend"] = structure.detrend
+    checks = _workflow(problem, structure, fits, fitted_models, want_figures=out is not None)
+    if checks.get("validation") is not None:
+        result["validation"] = checks["validation"]
+    summ = None
+    if summary:
+        from ._modelfit import summaries, summary_json
+
+        summ = summaries(problem, fits, fitted_models)
+        result["summary"] = [summary_json(x) for x in summ]
     result["elapsed_s"] = _time.perf_counter() - t0
     if out is not None:
-        result["report"] = str(_write_report(out, table, problem, fits, physical, result))
+        result["report"] = str(_write_report(out, table, problem, fits, physical, result,
+                                             checks=checks))
+    _write_outputs(result, problem, fits, tracks=tracks, export_c=export_c, c_name=c_name,
+                   float32=float32)
     if save_state is not None:  # last, after everything else succeeded (save_state is atomic)
         try:
             fits[0].estimator.save_state(save_state)
         except OSError as err:
             raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err})") from None
-    _print(output, result, fits, physical)
+    _print(output, result, fits, physical, summ)
     return result
+
+
+def _write_outputs(result, problem, fits, *, tracks, export_c, c_name, float32):
+    """--tracks FILE and --export-c DIR (after the fit and the report)."""
+    if tracks is not None:
+        from ..io import write_table
+        from ._modelfit import tracks_frame
+
+        try:
+            write_table(tracks_frame(problem, fits), tracks, index=False)
+        except ValueError as err:
+            raise CLIError(f"--tracks: {err}") from None
+        result["tracks"] = str(tracks)
+    if export_c is not None:
+        from ._export import write_c
+
+        result["export_c"] = [str(p) for p in write_c(fits[0].estimator, export_c, c_name, float32,
+                                                      option="--export-c")]
+
+
+def _workflow(problem, structure, fits, fitted_models, *, want_figures) -> dict:
+    """--validate numbers and the compare/resid results for the report (model fits)."""
+    from ._modelfit import validate, validation_model
+
+    out = {}
+    wanted = structure.validate is not None or (want_figures and structure.is_model)
+    if not wanted or problem.data is None or problem.kind == "dc-motor":
+        return out
+    f = fits[0]
+    model, k, label = validation_model(problem, structure, f, fitted_models.get(f.title))
+    if structure.validate is not None:
+        v, cmp, res = validate(problem.val_data, model, k, label, what="--validate")
+        v["fraction"] = structure.validate
+        out["validation"] = v
+        out["on"] = "validation"
+    else:
+        _, cmp, res = validate(problem.est_data, model, k, label, what="compare/resid")
+        out["on"] = "estimation"
+    if want_figures and (structure.is_model or structure.validate is not None):
+        out["compare"], out["resid"] = cmp, res
+    return out
 
 
 def check_outputs(data, *, out=None, save_state=None, resume=None):
@@ -156,7 +267,7 @@ def _result(table, problem: Problem, fits, spec, physical, nan) -> dict:
     return res
 
 
-def _print(output: Output, result, fits, physical):
+def _print(output: Output, result, fits, physical, summ=None):
     if not output.chatty:
         return
     from ._output import rich_table
@@ -175,12 +286,62 @@ def _print(output: Output, result, fits, physical):
     if physical is not None:
         c.print(rich_table("physical parameters", ["parameter", "estimate", "stderr"],
                            [[k, f"{v:.6g}", f"{se:.3g}"] for k, (v, se) in physical.items()]))
-    if "report" in result:
-        c.print(f"report: {result['report']}", markup=False, soft_wrap=True)
+    if "validation" in result:
+        from ._modelfit import validation_rows
+
+        v = result["validation"]
+        c.print(rich_table(f"validation on the held-out {v['n_samples']} samples "
+                           f"(last {100 * (1 - v['fraction']):.3g} %)", ["check", "value", "verdict"],
+                           validation_rows(v)))
+    for x in summ or ():
+        c.print(x.as_text(), markup=False, soft_wrap=True)
+    for key, what in (("tracks", "tracks"), ("report", "report")):
+        if key in result:
+            c.print(f"{what}: {result[key]}", markup=False, soft_wrap=True)
+    if "export_c" in result:
+        c.print("C code: " + ", ".join(result["export_c"]), markup=False, soft_wrap=True)
     output.detail(f"done in {result['elapsed_s']:.2f} s", markup=False, soft_wrap=True)
 
 
-def _write_report(out, table, problem: Problem, fits: list, physical, result):
+def _report_checks(rep, checks):
+    """The report's validation table and compare/resid figures (model fits)."""
+    if "validation" in checks:
+        from ._modelfit import validation_rows
+
+        v = checks["validation"]
+        rep.section("Validation")
+        rep.note(f"Estimated on the first {100 * v['fraction']:.3g} % of the record, checked on the "
+                 f"held-out {v['n_samples']} samples: fit (NRMSE) of the {v['fit_kind']}, "
+                 f"Ljung–Box test of the one-step prediction errors and their cross-correlation "
+                 f"with each input (level {v['alpha']:g}; adaptid.models.compare and resid).")
+        rep.table(["check", "value", "verdict"], validation_rows(v))
+        rep.end()
+    if "compare" in checks:
+        from adaptid import plot
+
+        on = "held-out" if checks["on"] == "validation" else "estimation"
+        rep.section("Model output against the measurement")
+        fig = plot.new_figure((11, 3.6))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)   # layout notes of matplotlib
+            checks["compare"].plot(fig=fig)
+        rep.figure("compare.png", fig, f"Measured output and the model's {checks['compare'].k or ''}"
+                   f"{'-step prediction' if checks['compare'].k else 'simulation'} on the {on} data, "
+                   "fit (NRMSE) % in the legend (adaptid.models.compare).")
+        rep.end()
+        rep.section("Residual analysis")
+        res = checks["resid"]
+        fig = plot.new_figure((11, 2.4 * (1 + len(res.u_names)) + 0.6))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)   # layout notes of matplotlib
+            res.plot(fig=fig)
+        rep.figure("resid.png", fig, f"Autocorrelation of the one-step prediction errors on the {on} "
+                   "data and their cross-correlation with each input, with the "
+                   f"{100 * (1 - res.alpha):g} % band (adaptid.models.resid).")
+        rep.end()
+
+
+def _write_report(out, table, problem: Problem, fits: list, physical, result, checks=None):
     from ._report import Report, constancy_figure, constancy_verdict, errors_figure
 
     rep = Report(out, f"adaptid fit: {Path(table.path).name}",
@@ -197,9 +358,10 @@ def _write_report(out, table, problem: Problem, fits: list, physical, result):
         rep.table(["parameter", "estimate", "stderr"], [[k, v, se] for k, (v, se) in physical.items()])
     rep.warnings(result["warnings"])
     rep.end()
+    _report_checks(rep, checks or {})
 
     use_time = problem.time is not None
-    xlabel = "time" if use_time else "sample"
+    xlabel = (problem.time_name or "time") if use_time else "sample"
 
     def xaxis(index):
         return problem.time[index] if use_time else index + 1.0

@@ -72,6 +72,9 @@ class Structure:
     u: list | None = None
     arx: tuple | None = None
     fir: tuple | None = None
+    ar: tuple | None = None
+    arma: tuple | None = None
+    bj: tuple | None = None
     dc_motor: bool = False
     time: str | None = None
     voltage: str | None = None
@@ -79,27 +82,59 @@ class Structure:
     speed: str | None = None
     cutoff: float | None = None
     speed_kind: str | None = None
+    intercept: bool = False
+    detrend: str | None = None
+    validate: float | None = None
 
     @property
     def kind(self) -> str:
-        return ("phi" if self.phi is not None else "arx" if self.arx is not None
-                else "fir" if self.fir is not None else "dc-motor" if self.dc_motor else "none")
+        for kind in ("phi", "arx", "fir", "ar", "arma", "bj"):
+            if getattr(self, kind) is not None:
+                return kind
+        return "dc-motor" if self.dc_motor else "none"
+
+    @property
+    def is_model(self) -> bool:
+        """An input-output or time-series model (not a plain regression, not --dc-motor)."""
+        return self.kind in ("arx", "fir", "ar", "arma", "bj")
 
     def check(self):
         chosen = [opt for opt, on in (("--phi", self.phi is not None), ("--arx", self.arx is not None),
-                                      ("--fir", self.fir is not None), ("--dc-motor", self.dc_motor)) if on]
+                                      ("--fir", self.fir is not None), ("--ar", self.ar is not None),
+                                      ("--arma", self.arma is not None), ("--bj", self.bj is not None),
+                                      ("--dc-motor", self.dc_motor)) if on]
         if not chosen:
             raise CLIError("give the regressors: --y COL --phi COL,..., --arx na,nb,nk --u COL --y COL, "
-                           "--fir nb,nk --u COL --y COL, or --dc-motor")
+                           "--fir nb,nk --u COL --y COL, --ar na --y COL, --arma na,nc --y COL, "
+                           "--bj nb,nc,nd,nf,nk --u COL --y COL, or --dc-motor")
         if len(chosen) > 1:
             raise CLIError(f"{' and '.join(chosen)} cannot be combined: choose one model structure")
         kind = self.kind
-        if kind in ("phi", "arx", "fir") and self.y is None:
+        if kind != "dc-motor" and self.y is None:
             raise CLIError(f"{chosen[0]} needs --y COL (the output column)")
-        if kind in ("arx", "fir") and self.u is None:
+        if kind in ("arx", "fir", "bj") and self.u is None:
             raise CLIError(f"{chosen[0]} needs --u COL (the input column)")
-        if kind == "phi" and self.u is not None:
-            raise CLIError("--u applies to --arx or --fir, not --phi")
+        if kind in ("phi", "ar", "arma") and self.u is not None:
+            raise CLIError(f"--u applies to --arx, --fir or --bj, not {chosen[0]}"
+                           + (" (a time-series model has no input)" if kind != "phi" else ""))
+        for opt, lab, orders in (("--ar", "na", self.ar), ("--arma", "na", self.arma)):
+            if orders is not None and orders[0] < 1:
+                raise CLIError(f"{opt}: {lab} must be >= 1, got {orders[0]}")
+        if self.bj is not None and self.bj[0] < 1:
+            raise CLIError(f"--bj: nb must be >= 1, got {self.bj[0]}")
+        if self.intercept and kind not in ("arx", "fir"):
+            raise CLIError(f"--intercept applies to --arx or --fir, not {chosen[0]}"
+                           + (" (add a column of ones to --phi)" if kind == "phi" else ""))
+        if self.detrend is not None and self.detrend not in ("constant", "linear"):
+            raise CLIError(f"--detrend must be constant or linear, got {self.detrend!r}")
+        if self.validate is not None and not (0.0 < self.validate < 1.0):
+            raise CLIError(f"--validate must be a fraction in (0, 1) (the part of the record used "
+                           f"for estimation), got {self.validate:g}")
+        if kind == "dc-motor":
+            for opt, val in (("--detrend", self.detrend), ("--validate", self.validate)):
+                if val is not None:
+                    raise CLIError(f"{opt} does not apply to --dc-motor (its regressors are "
+                                   "physical signals and filtered derivatives)")
         if kind == "dc-motor":
             for opt, val in (("--y", self.y), ("--u", self.u)):
                 if val is not None:
@@ -128,6 +163,11 @@ class Problem:
     regs: object = None             # DCMotorRegressors for --dc-motor
     columns: list = field(default_factory=list)
     nan_rows: int = 0
+    data: object = None             # IDData of the whole record (after --detrend)
+    est_data: object = None         # the estimation part (all of data without --validate)
+    val_data: object = None         # the held-out part (--validate)
+    time_name: str | None = None    # the --time column's name
+    datetime: bool = False          # the time column holds date-times (time is datetime64)
 
 
 def _nan_check(table: Table, cols: dict, nan_policy: str) -> int:
@@ -151,43 +191,114 @@ def _nan_check(table: Table, cols: dict, nan_policy: str) -> int:
     return count
 
 
-def _y_and_columns(table: Table, s: Structure, names, option: str, nan_policy: str):
-    """The --y column, the columns ``names`` of ``option``, --time, and the NaN rows."""
-    cols = table.expand(names, option)
+def _time_axis(table: Table, s: Structure):
+    """The --time column: (values for axes and files, is_datetime); datetime64 for date-times."""
+    if s.time is None:
+        return None, False
+    t = table.column(s.time, "--time")   # checks the column (present, numeric or date-time)
+    stamps = table.datetimes(s.time)
+    if stamps is not None:
+        return stamps, True
+    return t, False
+
+
+def _sample_time(time, is_dt) -> float:
+    """dt for the models (to_control): the median step of the time column, else 1."""
+    if time is None or len(time) < 2:
+        return 1.0
+    steps = np.diff(time).astype("timedelta64[ns]").astype(np.int64) * 1e-9 if is_dt \
+        else np.diff(time)
+    steps = steps[np.isfinite(steps)]
+    dt = float(np.median(steps)) if steps.size else 1.0
+    return dt if dt > 0 else 1.0
+
+
+class _Raw:
+    """The columns of a record with missing values (no IDData: that needs finite samples)."""
+
+    def __init__(self, y, X):
+        self.y, self.inputs = y, X
+
+    def __len__(self):
+        return len(self.y)
+
+
+def _record(table: Table, s: Structure, nan_policy: str):
+    """The IDData of the columns used (detrended, split), the column names and the NaN rows."""
+    from adaptid import IDData
+
+    kind = s.kind
+    in_names = s.phi if kind == "phi" else s.u if kind in ("arx", "fir", "bj") else []
+    cols = table.expand(in_names, "--phi" if kind == "phi" else "--u") if in_names else []
     y = table.column(s.y, "--y")
-    X = table.columns(cols, option)
-    if len(y) != len(X):
-        raise CLIError(f"{table.path}: --y column {s.y!r} has {len(y)} rows, {option} columns {len(X)}")
-    time = table.column(s.time, "--time") if s.time is not None else None
+    X = table.columns(cols, "--phi" if kind == "phi" else "--u") if cols else np.zeros((len(y), 0))
+    if cols and len(y) != len(X):
+        raise CLIError(f"{table.path}: --y column {s.y!r} has {len(y)} rows, the other columns {len(X)}")
+    time, is_dt = _time_axis(table, s)
+    if time is not None and len(time) != len(y):
+        raise CLIError(f"{table.path}: --time column {s.time!r} has {len(time)} rows, --y {len(y)}")
     nan = _nan_check(table, {s.y: y, **{n: X[:, j] for j, n in enumerate(cols)}}, nan_policy)
-    return cols, y, X, time, nan
+    if nan:
+        for opt, on in (("--detrend", s.detrend is not None), ("--validate", s.validate is not None),
+                        (f"--{kind}", kind in ("arma", "bj"))):
+            if on:
+                raise CLIError(f"{table.path}: {nan} row(s) with missing values; {opt} needs a "
+                               "complete record (a gap breaks the "
+                               + ("filtered signals of the recursion" if opt == f"--{kind}"
+                                  else "trend and the held-out simulation") + ")")
+    if nan:  # --nan skip: the estimators skip the incomplete rows; IDData holds complete records
+        raw = _Raw(y, X)
+        return None, raw, None, cols, time, is_dt, nan
+    try:
+        data = IDData(y, X if cols else None, dt=_sample_time(time, is_dt), time=time,
+                      y_names=s.y, u_names=cols or None)
+    except (ValueError, TypeError) as e:
+        raise CLIError(f"{table.path}: {e}") from None
+    if s.detrend is not None:
+        data = data.detrend(s.detrend)
+    est, val = data, None
+    if s.validate is not None:
+        try:
+            est, val = data.split(s.validate)
+        except ValueError as e:
+            raise CLIError(f"--validate {s.validate:g}: {e}") from None
+    return data, est, val, cols, time, is_dt, nan
 
 
 def build_problem(table: Table, s: Structure, nan_policy: str) -> Problem:
     kind = s.kind
-    if kind == "phi":
-        phi_names, y, Phi, time, nan = _y_and_columns(table, s, s.phi, "--phi", nan_policy)
-        return Problem(kind, [("regression", phi_names, Phi, y, np.arange(len(y)))], len(y),
-                       time=time, columns=[s.y, *phi_names], nan_rows=nan)
-    if kind in ("arx", "fir"):
+    if kind != "dc-motor":
         from adaptid import models
 
-        u_names, y, U, time, nan = _y_and_columns(table, s, s.u, "--u", nan_policy)
-        u = U[:, 0] if U.shape[1] == 1 else U
+        data, est, val, cols, time, is_dt, nan = _record(table, s, nan_policy)
+        y = np.ascontiguousarray(est.y, dtype=np.float64)
+        n_rows = len(data) if data is not None else len(est)
+        common = dict(time=time, columns=[s.y, *cols], nan_rows=nan, data=data, est_data=est,
+                      val_data=val, time_name=s.time, datetime=is_dt)
+        if kind == "phi":
+            return Problem(kind, [("regression", list(cols), np.array(est.inputs), y,
+                                   np.arange(len(y)))], n_rows, **common)
+        if kind in ("arma", "bj"):  # pseudo-linear: no fixed regressors (models' fit_recursive)
+            return Problem(kind, [(kind.upper(), None, None, y, None)], n_rows, **common)
+        u = None if not cols else est.inputs[:, 0] if len(cols) == 1 else est.inputs
         try:
             if kind == "arx":
                 na, nb, nk = s.arx
                 reg = models.arx_regressors(y, u, na, nb, nk)
+            elif kind == "ar":
+                na, nb = s.ar[0], 0
+                reg = models.arx_regressors(y, np.zeros(len(y)), na, 0, 1)
             else:
-                nb, nk = s.fir
+                na, (nb, nk) = 0, s.fir
                 reg = models.fir_regressors(y, u, nb, nk)
         except ValueError as e:
             raise CLIError(f"--{kind}: {e}") from None
-        names, Phi = polynomial_form(reg.Phi, s.arx[0] if kind == "arx" else 0, u_names,
-                                     s.arx[1] if kind == "arx" else s.fir[0])
-        return Problem(kind, [(kind.upper(), names, Phi, np.asarray(reg.y, dtype=float),
-                               np.asarray(reg.index))], len(y), time=time,
-                       columns=[s.y, *u_names], nan_rows=nan)
+        names, Phi = polynomial_form(reg.Phi, na, cols, nb)
+        if s.intercept:
+            names, Phi = names + ["intercept"], np.column_stack([Phi, np.ones(len(Phi))])
+        return Problem(kind, [(kind.upper(), names, np.ascontiguousarray(Phi),
+                               np.asarray(reg.y, dtype=float), np.asarray(reg.index))],
+                       n_rows, **common)
     # dc-motor
     from adaptid import models
 

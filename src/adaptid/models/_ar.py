@@ -25,7 +25,16 @@ class _TimeSeries:
         y = as_float_array(y, "y", ndim=1)
         return y, np.zeros(y.shape[0])
 
-    def predict(self, y, k=1):
+    def _data(self, y, u, *, fitting=False):
+        # the internal all-zero input is no signal of the record: no input names, and
+        # summary() sees an estimation record without inputs
+        y, U = super()._data(y, u, fitting=fitting)
+        if fitting:
+            self.u_names = ()
+            self._fit_signals = (y, np.zeros((y.shape[0], 0)))
+        return y, U
+
+    def predict(self, y, u=None, *, k=1):
         r"""k-step-ahead prediction :math:`\hat y_{t|t-k} = (1 - \bar H_k A/C)\,y_t`.
 
         :math:`\bar H_k` is the impulse response of H = C/A truncated to k
@@ -35,6 +44,11 @@ class _TimeSeries:
         Parameters
         ----------
         y : array_like, shape (N,)
+        u : None or array_like of zeros
+            No input (accepted, as None or the all-zero input column the
+            model uses internally, so that :func:`~adaptid.models.compare`,
+            :func:`~adaptid.models.resid` and ``summary()`` call every model
+            as ``predict(y, u, k=k)``).
         k : int
             Horizon, ``>= 1`` (default 1).
 
@@ -42,6 +56,11 @@ class _TimeSeries:
         -------
         ndarray, shape (N,)
         """
+        if u is not None and np.any(np.asarray(u, dtype=np.float64) != 0.0):
+            from .._validation import param_error
+
+            raise param_error("u", "None (a time-series model has no input)", "<an input>",
+                              exc=TypeError)
         y, u = self._no_input(y)
         return super().predict(y, u, k=k)
 

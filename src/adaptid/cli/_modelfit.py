@@ -1,0 +1,272 @@
+r"""``adaptid fit`` with the model objects: ARMA/BJ fits, validation, summary tables, tracks.
+
+* ``--arma`` / ``--bj`` regress on signals filtered with the running
+  estimate (pseudo-linear regression), so they cannot be a fixed Φ run by an
+  estimator: they go through :meth:`adaptid.models.ARMA.fit_recursive` /
+  :meth:`~adaptid.models.BJ.fit_recursive` (``--method rls|window|kalman``,
+  the estimator built by :func:`adaptid.estimator` is read for its options)
+  or ``fit`` (``--method batch``).
+* ``--validate`` / the report's figures use :func:`adaptid.models.compare`
+  (simulation for input–output models, one-step prediction for AR/ARMA) and
+  :func:`adaptid.models.resid` on the held-out part, with the model at the
+  estimate the command printed.
+* ``--summary``: the models' ``summary()`` (ARMA, BJ), or
+  :func:`adaptid.models.recursive_summary` / :meth:`adaptid.lstsq`'s
+  ``summary()`` of the fixed regression the estimator ran on.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ._engine import EquationFit, MethodSpec
+from ._errors import CLIError
+
+__all__ = ["fit_model_equation", "validation_model", "validate", "summaries", "tracks_frame"]
+
+RESID_ALPHA = 0.01   # MATLAB's resid band (99 %), models.resid's default
+MAX_LAG = 25         # MATLAB's resid default
+
+
+def _cli_names(names, cols):
+    """BJ's ``b0``/``f1`` (``b0_1`` for several inputs) → ``b_COL[0]``/``f_COL[1]`` as --arx prints."""
+    out = []
+    for n in names:
+        head, rest = n[0], n[1:]
+        if head in "bf" and cols:
+            i, j = (rest.split("_") if "_" in rest else ("0", rest))
+            out.append(f"{head}_{cols[int(i)]}[{j}]")
+        else:
+            out.append(n)
+    return out
+
+
+def _model_of(problem, s):
+    from adaptid import models
+
+    dt = problem.data.dt if problem.data is not None else 1.0
+    if problem.kind == "arma":
+        return models.ARMA(*s.arma, dt=dt)
+    return models.BJ(*s.bj, dt=dt)
+
+
+def fit_model_equation(problem, s, spec: MethodSpec, *, nan_policy, advance=None) -> tuple:
+    """Fit ``--arma``/``--bj`` on the estimation part; returns (EquationFit, fitted model)."""
+    est_data = problem.est_data
+    y = np.ascontiguousarray(est_data.y, dtype=np.float64)
+    U = None if problem.kind == "arma" else est_data.u
+    model = _model_of(problem, s)
+    # BJ takes the IDData (its names go into summary()); ARMA the output array
+    args = (y,) if U is None else (est_data, None)
+    title = problem.kind.upper()
+    caught = []
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        try:
+            if spec.resolved == "batch":
+                model.fit(*args)
+                track, error, index = None, np.asarray(model.residuals), np.asarray(model.index)
+            else:
+                d = _n_params(problem, s, 1 if U is None or np.ndim(U) == 1 else U.shape[1])
+                est = spec.make(d, nan_policy)
+                traj = model.fit_recursive(*args, est)
+                track, error = np.asarray(traj.theta), np.asarray(traj.error)
+                index = np.asarray(traj.meta["index"])
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:
+            raise CLIError(f"--{problem.kind}: {e}") from None
+    for w in rec:
+        msg = " ".join(str(w.message).split())
+        if msg not in caught:
+            caught.append(msg)
+    if advance is not None:
+        advance(len(y))
+    if problem.kind == "arma":
+        model.y_name = problem.columns[0]
+    theta = np.asarray(model.theta, dtype=np.float64).copy()
+    n = theta.size
+    finite = np.isfinite(error)
+    warm = min(10 * n, len(error) // 2) if track is not None else 0
+    rms = float(np.sqrt(np.mean(error[warm:][finite[warm:]] ** 2))) if finite[warm:].any() \
+        else float("nan")
+    fit = EquationFit(
+        title=title, method=spec.resolved, label=spec.label(), names=_cli_names(model.names,
+                                                                                 problem.columns[1:]),
+        theta=theta, stderr=np.asarray(model.stderr, dtype=np.float64),
+        cov=np.asarray(model.cov), sigma2=float(model.noise_variance), n_samples=len(error),
+        n_skipped=0, error=error, index=index, track=track, rms_error=rms)
+    fit.warnings = caught
+    return fit, model
+
+
+def _n_params(problem, s, m):
+    if problem.kind == "arma":
+        return s.arma[0] + s.arma[1]
+    nb, nc, nd, nf, _ = s.bj
+    return m * nb + nc + nd + m * nf
+
+
+# ------------------------------------------------------------------ validation
+class _Static:
+    """A --phi regression y = φᵀθ as a model for compare/resid (its simulation is its prediction)."""
+
+    fit_kind = "prediction (regression)"
+
+    def __init__(self, theta, label):
+        self.theta, self.index, self.label = np.asarray(theta), np.array([0]), label
+
+    def predict(self, y, u, k=1):
+        return np.asarray(u, dtype=np.float64).reshape(len(y), -1) @ self.theta
+
+    def simulate(self, u):
+        U = np.asarray(u, dtype=np.float64)
+        return U.reshape(U.shape[0], -1) @ self.theta
+
+    def __repr__(self):
+        return self.label
+
+
+class _WithIntercept:
+    r"""ARX/FIR with a constant c (``--intercept``): :math:`A(q)y_k = B(q)u_k + c + e_k`.
+
+    One-step prediction: the model's plus c; simulation (zero initial
+    conditions): the model's plus the response of 1/A(q) to the constant c.
+    """
+
+    def __init__(self, model, c, label):
+        self.model, self.c, self.label = model, float(c), label
+        self.index = model.index
+
+    def predict(self, y, u, k=1):
+        if k != 1:  # pragma: no cover - the CLI asks for k = 1 only
+            raise CLIError("--intercept: only the one-step prediction is available")
+        return self.model.predict(y, u, k=1) + self.c
+
+    def simulate(self, u):
+        from scipy.signal import lfilter
+
+        ys = np.asarray(self.model.simulate(u), dtype=np.float64)
+        return ys + lfilter([self.c], self.model.A, np.ones(ys.shape[0]))
+
+    def __repr__(self):
+        return self.label
+
+
+def validation_model(problem, s, fit: EquationFit, model=None):
+    """The model at the printed estimate, for compare/resid; (model, k, label)."""
+    from adaptid import models
+
+    est = problem.est_data
+    kind = problem.kind
+    label = f"{_structure_label(kind, s)} ({fit.label})"
+    if kind in ("arma", "bj"):
+        return model, (1 if kind == "arma" else None), label
+    if kind == "phi":
+        return _Static(fit.theta, label), None, label
+    theta = np.asarray(fit.theta, dtype=np.float64)
+    if kind == "ar":
+        m = models.AR(s.ar[0], dt=est.dt).fit(est.y)
+        k = 1
+    else:
+        na, nb, nk = s.arx if kind == "arx" else (0, *s.fir)
+        m = models.ARX(na, nb, nk).fit(est)  # the structure (orders, inputs, rows, names, dt)
+        k = None
+    # the model at the CLI's estimate (recursive, forgetting, --resume: not the batch one);
+    # predict/simulate read only θ (the statistics of m.fit are not used here)
+    m.theta = theta[:-1].copy() if s.intercept else theta.copy()
+    if s.intercept:
+        return _WithIntercept(m, theta[-1], label), k, label
+    return m, k, label
+
+
+def _structure_label(kind, s):
+    orders = {"arx": s.arx, "fir": s.fir, "ar": s.ar, "arma": s.arma, "bj": s.bj}.get(kind)
+    if orders is None:
+        return "regression"
+    return f"{kind.upper()}({','.join(map(str, orders))})" + (" + intercept" if s.intercept else "")
+
+
+def validate(data, model, k, label, *, what):
+    """compare + resid of ``model`` on ``data``; (dict for JSON/table, CompareResult, ResidResult)."""
+    from adaptid import models
+
+    try:
+        cmp = models.compare(data, model, k=k, names=[label])
+        start = int(np.asarray(model.index)[0]) if np.size(model.index) else 0
+        lags = min(MAX_LAG, len(data) - start - 1)
+        res = models.resid(data, model, max_lag=lags, alpha=RESID_ALPHA)
+    except ValueError as e:
+        raise CLIError(f"{what}: {e}") from None
+    cc = {n: float(c["p_value"]) for n, c in zip(res.u_names, res.cross_correlation)}
+    out = {
+        "n_samples": len(data),
+        "fit_percent": float(cmp.fit[0]),
+        "fit_kind": getattr(model, "fit_kind", "simulation" if k is None else f"{k}-step prediction"),
+        "ljung_box_p": float(res.autocorrelation["p_value"]),
+        "max_lag": int(lags),
+        "alpha": RESID_ALPHA,
+        "white": res.white,
+        "cross_correlation_p": cc,
+        "independent": dict(zip(res.u_names, res.independent)),
+    }
+    return out, cmp, res
+
+
+def validation_rows(v: dict) -> list:
+    """Rows (quantity, value, verdict) of the validation table."""
+    rows = [[f"fit % ({v['fit_kind']})", f"{v['fit_percent']:.2f}", ""],
+            [f"Ljung-Box p (lags 1..{v['max_lag']})", f"{v['ljung_box_p']:.3g}",
+             "white" if v["white"] else f"not white at {v['alpha']:g}"]]
+    for name, p in v["cross_correlation_p"].items():
+        rows.append([f"cross-corr. p ({name}, lags 0..{v['max_lag']})", f"{p:.3g}",
+                     "independent" if v["independent"][name] else f"correlated at {v['alpha']:g}"])
+    return rows
+
+
+# --------------------------------------------------------------------- summary
+def summaries(problem, fits, models_by_title) -> list:
+    """One ``Summary`` per equation (see the module docstring)."""
+    import adaptid
+    from adaptid.models import recursive_summary
+
+    out = []
+    for (title, names, Phi, y, index), f in zip(problem.equations, fits):
+        model = models_by_title.get(f.title)
+        if model is not None:
+            out.append(model.summary())
+        elif f.estimator is None:   # batch on a fixed regression
+            ok = np.isfinite(Phi).all(axis=1) & np.isfinite(y)
+            out.append(adaptid.lstsq(Phi[ok], y[ok]).summary(names=f.names))
+        else:
+            used = np.isfinite(Phi).all(axis=1) & np.isfinite(y)   # the rows the estimator used
+            with np.errstate(invalid="ignore"):
+                out.append(recursive_summary(f.estimator, Phi, y, names=f.names, used=used))
+    return out
+
+
+def summary_json(summ) -> dict:
+    cols = ["estimate", "stderr", "t", "p", "lower", "upper"]
+    return {"title": summ.title, "names": list(summ.names),
+            "params": {n: dict(zip(cols, map(float, row))) for n, row in zip(summ.names, summ.params)},
+            "stats": {k: (float(v) if isinstance(v, (int, float, np.floating, np.integer)) else str(v))
+                      for k, v in summ.stats.items()},
+            "alpha": float(summ.alpha)}
+
+
+# ---------------------------------------------------------------------- tracks
+def tracks_frame(problem, fits):
+    """Per-sample estimates (and a-priori errors) with the time column, one row per sample."""
+    import pandas as pd
+
+    frames = []
+    for f in fits:
+        prefix = f"{f.title}:" if len(fits) > 1 else ""
+        cols = {prefix + n: f.track[:, j] for j, n in enumerate(f.names)}
+        cols[prefix + "error"] = f.error
+        frames.append(pd.DataFrame(cols, index=pd.Index(np.asarray(f.index), name="sample")))
+    frame = frames[0] if len(frames) == 1 else pd.concat(frames, axis=1)
+    frame = frame.sort_index()
+    if problem.time is not None:
+        frame.insert(0, problem.time_name or "time", np.asarray(problem.time)[frame.index.to_numpy()])
+    return frame.reset_index()
