@@ -207,3 +207,22 @@ def test_oe_pseudolinear_trajectory_has_names(plant):
     m = OE(2, 2, 2)
     traj = m.fit_recursive(est)
     assert traj.names == ("b0", "b1", "f1", "f2") and traj.time is not None
+
+
+def test_estimator_run_takes_names_and_time_from_pandas():
+    """Issue 15, point 6: a trajectory knows the names and time index of the
+    data it came from without being told (here: a DataFrame Phi)."""
+    import adaptid
+
+    rng = np.random.default_rng(5)
+    t = pd.date_range("2026-01-01", periods=300, freq="s")
+    X = pd.DataFrame(rng.standard_normal((300, 2)), columns=["R", "Ke"], index=t)
+    y = pd.Series(X.to_numpy() @ [1.0, 2.0], index=t)
+    tr = adaptid.RLS(2, P0=1e8).run(X, y)
+    df = tr.to_pandas()
+    assert list(df.columns[:2]) == ["R", "Ke"]
+    assert (df.index == t).all()
+    np.testing.assert_allclose(df[["R", "Ke"]].to_numpy()[-1], [1.0, 2.0], rtol=1e-7)
+    plain = adaptid.RLS(2, P0=1e8).run(X.to_numpy(), y.to_numpy())
+    assert plain.names is None and plain.time is None
+    np.testing.assert_array_equal(plain.theta, tr.theta)

@@ -20,6 +20,7 @@ algorithm (:class:`~adaptid.RLS`, :class:`~adaptid.SlidingWindowRLS`,
 from __future__ import annotations
 
 import copy as _copy
+from dataclasses import replace as _dataclass_replace
 import warnings
 
 import numpy as np
@@ -40,6 +41,26 @@ from ._statefile import FORMAT
 from ._trajectory import Trajectory
 
 __all__ = ["RecursiveEstimator"]
+
+
+def _labels(Phi, y):
+    """Parameter names and time stamps of pandas input (DataFrame columns, index)."""
+    out = {}
+    columns = getattr(Phi, "columns", None)
+    if columns is not None and getattr(Phi, "ndim", 0) == 2:
+        out["names"] = tuple(str(c) for c in columns)
+    index = getattr(Phi, "index", None)
+    if index is None:
+        index = getattr(y, "index", None)
+    if index is not None and not _is_default_index(index):
+        out["time"] = np.asarray(index)
+    return out
+
+
+def _is_default_index(index):
+    """A RangeIndex 0..N-1 carries no time."""
+    start, step = getattr(index, "start", None), getattr(index, "step", None)
+    return start == 0 and step == 1
 
 _NAN_POLICIES = ("raise", "skip")
 
@@ -449,6 +470,7 @@ class RecursiveEstimator:
             Bit-for-bit the result of N calls of :meth:`update`.
         """
         self._check_single("run")
+        labels = _labels(Phi, y)
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
         lam = self._lam_run(forgetting, Phi.shape[:1])
         Th, E, skipped = self._alloc(Phi.shape[:1], store)
@@ -459,8 +481,9 @@ class RecursiveEstimator:
         self._raise_if_skipped(skipped, Phi, Y, backup)
         self._count(skipped)
         self._report_codes(code, None)
-        return self._finish(Th, E, skipped, store, code if self._code_is_rebuilds else 0,
+        traj = self._finish(Th, E, skipped, store, code if self._code_is_rebuilds else 0,
                             Lk if self._reports else None)
+        return _dataclass_replace(traj, **labels) if labels else traj
 
     def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
         r"""Run B independent streams in one compiled, parallel call.
