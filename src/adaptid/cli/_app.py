@@ -191,7 +191,8 @@ def fit(
                                                       "(default) or the mean over the last interval "
                                                       "(differenced encoder counts).",
                                                       rich_help_panel="Model")] = None,
-    method: Annotated[Optional[str], typer.Option("--method", "-m", metavar="rls|window|kalman|batch",
+    method: Annotated[Optional[str], typer.Option("--method", "-m",
+                                                  metavar="rls|window|kalman|lms|nlms|batch",
                                                   help="Estimator (default rls).",
                                                   rich_help_panel="Method")] = None,
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1] (rls, window).",
@@ -205,6 +206,10 @@ def fit(
                                                        rich_help_panel="Method")] = None,
     p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I (default 1e4).",
                                                 rich_help_panel="Method")] = None,
+    step: Annotated[Optional[float], typer.Option("--step", help="Adaptation gain μ > 0 (lms, nlms).",
+                                                  rich_help_panel="Method")] = None,
+    eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε ≥ 0 (nlms; "
+                                                 "default 2.2e-16).", rich_help_panel="Method")] = None,
     nan: Annotated[str, typer.Option("--nan", metavar="skip|error", help="Rows with missing values: "
                                      "skip them (counted) or stop with an error.")] = "error",
     out_dir: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write a report folder.")] = None,
@@ -237,7 +242,8 @@ def fit(
         if method is not None:
             method = method.strip().lower()
         spec = MethodSpec(method=method, forgetting=forgetting, window=window,
-                          process_cov=process_cov, noise_var=noise_var, P0=p0)
+                          process_cov=process_cov, noise_var=noise_var, P0=p0,
+                          step=step, eps=eps)
         result = run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
                          save_state=save_state, resume=resume, output=out)
         if out.json:
