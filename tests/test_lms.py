@@ -32,14 +32,17 @@ def _data(rng, N=2000, n=4, p=None, noise=0.1):
 
 
 # ------------------------------------------------------------------ padasip
-@pytest.mark.parametrize("theta0", [None, [0.3, -0.2, 0.1, 0.5]])
-def test_lms_equals_padasip_filterlms(rng, theta0):
-    Phi, y = _data(rng)
+# n = 10: the kernel sums the dot products in four partial sums plus a tail
+# for n >= 8 (adaptid._kernels._lms._dot), sequentially below
+@pytest.mark.parametrize("n", [4, 10])
+@pytest.mark.parametrize("theta0", [None, "random"])
+def test_lms_equals_padasip_filterlms(rng, theta0, n):
+    Phi, y = _data(rng, n=n)
     mu = 0.01
-    w0 = np.zeros(4) if theta0 is None else np.array(theta0)
-    f = padasip.filters.FilterLMS(n=4, mu=mu, w=w0.copy())
+    w0 = np.zeros(n) if theta0 is None else rng.standard_normal(n)
+    f = padasip.filters.FilterLMS(n=n, mu=mu, w=w0.copy())
     yp, ep, w_hist = f.run(y, Phi)  # w_hist[k]: the weights BEFORE sample k
-    est = adaptid.LMS(4, step=mu, theta0=theta0)
+    est = adaptid.LMS(n, step=mu, theta0=None if theta0 is None else w0)
     tr = est.run(Phi, y)
     np.testing.assert_allclose(tr.error, ep, rtol=TOL, atol=TOL)
     np.testing.assert_allclose(tr.theta[:-1], w_hist[1:], rtol=TOL, atol=TOL)
@@ -47,13 +50,14 @@ def test_lms_equals_padasip_filterlms(rng, theta0):
     np.testing.assert_allclose(est.predict(Phi[:5]), Phi[:5] @ f.w, rtol=TOL, atol=TOL)
 
 
+@pytest.mark.parametrize("n", [4, 10])
 @pytest.mark.parametrize("mu, eps", [(0.5, 0.001), (1.0, 1.0), (0.2, 0.0)])
-def test_nlms_equals_padasip_filternlms(rng, mu, eps):
-    Phi, y = _data(rng)
-    Phi *= np.array([1.0, 10.0, 0.1, 3.0])  # NLMS is insensitive to the scale
-    f = padasip.filters.FilterNLMS(n=4, mu=mu, eps=eps, w="zeros")
+def test_nlms_equals_padasip_filternlms(rng, mu, eps, n):
+    Phi, y = _data(rng, n=n)
+    Phi *= np.resize([1.0, 10.0, 0.1, 3.0], n)  # NLMS is insensitive to the scale
+    f = padasip.filters.FilterNLMS(n=n, mu=mu, eps=eps, w="zeros")
     yp, ep, w_hist = f.run(y, Phi)
-    est = adaptid.NLMS(4, step=mu, eps=eps)
+    est = adaptid.NLMS(n, step=mu, eps=eps)
     tr = est.run(Phi, y)
     np.testing.assert_allclose(tr.error, ep, rtol=TOL, atol=TOL)
     np.testing.assert_allclose(tr.theta[:-1], w_hist[1:], rtol=TOL, atol=TOL)
@@ -91,23 +95,25 @@ def matlab_gradient(Phi, Y, gain, bias=None, weights=None, theta0=None):
     return out
 
 
+@pytest.mark.parametrize("n", [3, 9])
 @pytest.mark.parametrize("p", [None, 2])
-def test_matlab_gradient_equations(rng, p):
-    Phi, y = _data(rng, N=1500, n=3, p=p)
+def test_matlab_gradient_equations(rng, p, n):
+    Phi, y = _data(rng, N=1500, n=n, p=p)
     w = rng.uniform(0.0, 2.0, 1500)
     ref = matlab_gradient(Phi, y, 0.02, weights=w)
-    tr = adaptid.LMS(3, step=0.02, n_outputs=p).run(Phi, y, weights=w)
+    tr = adaptid.LMS(n, step=0.02, n_outputs=p).run(Phi, y, weights=w)
     got = tr.theta if p is not None else tr.theta[..., None]
     # a few ulps per step (other summation order, FMA), contracting dynamics
     np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-13)
 
 
+@pytest.mark.parametrize("n", [3, 9])
 @pytest.mark.parametrize("p", [None, 2])
-def test_matlab_normalized_gradient_equations(rng, p):
-    Phi, y = _data(rng, N=1500, n=3, p=p)
+def test_matlab_normalized_gradient_equations(rng, p, n):
+    Phi, y = _data(rng, N=1500, n=n, p=p)
     Phi[::7] *= 50.0  # badly scaled samples: the normalisation matters
     ref = matlab_gradient(Phi, y, 0.8, bias=np.finfo(float).eps)  # MATLAB's default Bias
-    est = adaptid.estimator("nlms", 3, step=0.8, n_outputs=p)
+    est = adaptid.estimator("nlms", n, step=0.8, n_outputs=p)
     assert est.eps == np.finfo(float).eps
     tr = est.run(Phi, y)
     got = tr.theta if p is not None else tr.theta[..., None]

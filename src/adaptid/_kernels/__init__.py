@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-__all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "tags"]
+__all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "NLMS", "tags"]
 
 from ._dims import tags
 
@@ -43,7 +43,7 @@ def __getattr__(name):
     # dispatchers of the others
     table = {"RLS": ("_rls", "rls"), "STRATEGY": ("_strategy", "strategy"),
              "KALMAN": ("_kalman", "kalman"), "WINDOW": ("_window", "window"),
-             "LMS": ("_lms", "lms")}
+             "LMS": ("_lms", "lms"), "NLMS": ("_lms", "nlms")}
     if name in table:
         value = _entries(*table[name])
         globals()[name] = value

@@ -29,12 +29,10 @@ class _Gradient(RecursiveEstimator):
 
     # what the engine needs to know
     def _entries(self):
-        return _kernels.LMS
+        return _kernels.NLMS if self._normalised else _kernels.LMS
 
     def _kernel_options(self):
-        bias = getattr(self, "eps", 0.0)
-        return (np.array([np.inf, 1.0 if self._normalised else 0.0, self.step, bias]),
-                np.zeros((1, 1)))
+        return np.array([np.inf, self.step, getattr(self, "eps", 0.0)]), np.zeros((1, 1))
 
     def _state_length(self):
         return self.n_params * self.n_outputs
