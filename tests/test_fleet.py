@@ -329,6 +329,8 @@ def test_bad_options(small):
     with pytest.raises(TypeError, match="process_cov"):
         fleet.identify(small, group="device", y="v", phi=PHI, method="kalman")
     with pytest.raises(ValueError, match="method"):
+        fleet.identify(small, group="device", y="v", phi=PHI, method="lsm")
+    with pytest.raises(TypeError, match="step"):  # lms is a method since issue 16; it needs step
         fleet.identify(small, group="device", y="v", phi=PHI, method="lms")
     with pytest.raises(ValueError, match="forgetting"):
         fleet.identify(small, group="device", y="v", phi=PHI, forgetting=1.5)

@@ -311,8 +311,7 @@ def test_cli_fit_lms(rng, tmp_path):
     assert bad.exit_code == 2 and "--step applies" in bad.stderr
 
 
-def test_fleet_identify_lms(rng):
-    from adaptid import fleet
+def _fleet_frame(rng):
     rows = []
     truth = {}
     for dev in range(6):
@@ -322,7 +321,12 @@ def test_fleet_identify_lms(rng):
         truth[dev] = (Phi, Phi @ th + 0.05 * rng.standard_normal(N))
         rows.append(pd.DataFrame({"device": dev, "t": np.arange(N), "x1": Phi[:, 0],
                                   "x2": Phi[:, 1], "v": truth[dev][1]}))
-    df = pd.concat(rows, ignore_index=True)
+    return pd.concat(rows, ignore_index=True), truth
+
+
+def test_fleet_identify_lms(rng):
+    from adaptid import fleet
+    df, truth = _fleet_frame(rng)
     for method, opts, make in (("lms", {"step": 0.05}, lambda: adaptid.LMS(2, step=0.05)),
                                ("nlms", {"step": 0.5, "eps": 0.1},
                                 lambda: adaptid.NLMS(2, step=0.5, eps=0.1))):
@@ -335,3 +339,41 @@ def test_fleet_identify_lms(rng):
             r = y - Phi @ est.theta
             np.testing.assert_allclose(res.loc[dev, "sigma2"], r @ r / (len(y) - 2), rtol=1e-9)
         assert res[["stderr_x1", "stderr_x2"]].isna().all().all()
+
+
+def test_cli_fleet_nlms(rng, tmp_path):
+    from typer.testing import CliRunner
+
+    from adaptid.cli._app import app
+    df, truth = _fleet_frame(rng)
+    path = tmp_path / "fleet.csv"
+    df.to_csv(path, index=False, float_format="%.17g")
+    res = CliRunner().invoke(app, ["fleet", str(path), "--group", "device", "--y", "v",
+                                   "--phi", "x1,x2", "--time", "t", "--method", "nlms",
+                                   "--step", "0.5", "--eps", "0.1", "--json"])
+    assert res.exit_code == 0, res.output
+    out = {d["device"]: d for d in json.loads(res.stdout)["devices"]}
+    for dev, (Phi, y) in truth.items():
+        est = adaptid.NLMS(2, step=0.5, eps=0.1)
+        est.run(Phi, y)
+        np.testing.assert_array_equal([out[dev]["x1"], out[dev]["x2"]], est.theta)
+        assert out[dev]["stderr_x1"] is None  # NaN -> JSON null
+    bad = CliRunner().invoke(app, ["fleet", str(path), "--group", "device", "--y", "v",
+                                   "--phi", "x1,x2", "--method", "lms"])
+    assert bad.exit_code == 2 and "--step" in bad.stderr
+
+
+@pytest.mark.slow
+def test_bench_lms_quick_runs_and_compares_like_with_like():
+    """benchmarks/bench_lms.py --quick: it runs, and its check phase (final θ of
+    adaptid, the C loop and padasip equal to 1e-9) passes. Speed is not asserted."""
+    import subprocess
+    import sys
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_lms.py"), "--quick"],
+                          cwd=root, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    for kind in ("LMS ", "NLMS"):
+        for n in (4, 8, 16):
+            assert f"{kind} n={n:2d}:" in proc.stdout

@@ -264,12 +264,14 @@ def fleet(
                                                  "Regression (instead of --y/--phi).")] = None,
     time: Annotated[Optional[str], typer.Option("--time", help="Ordering column (rows sorted by it "
                                                 "within each device; default: stored order).")] = None,
-    method: Annotated[str, typer.Option("--method", "-m", metavar="rls|window|kalman")] = "rls",
+    method: Annotated[str, typer.Option("--method", "-m", metavar="rls|window|kalman|lms|nlms")] = "rls",
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1].")] = None,
     window: Annotated[Optional[int], typer.Option("--window", help="Window length M.")] = None,
     process_cov: Annotated[Optional[float], typer.Option("--process-cov", help="R1 (kalman).")] = None,
     noise_var: Annotated[Optional[float], typer.Option("--noise-var", help="R2 (kalman).")] = None,
     p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I.")] = None,
+    step: Annotated[Optional[float], typer.Option("--step", help="Adaptation gain μ (lms, nlms).")] = None,
+    eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε (nlms).")] = None,
     alpha: Annotated[float, typer.Option("--alpha", help="Level of each device's CUSUM change "
                                          "test (use 0.05/G for a family-wise level).")] = 0.05,
     nan: Annotated[str, typer.Option("--nan", metavar="skip|error")] = "error",
@@ -295,17 +297,19 @@ def fleet(
         from adaptid.estimators import METHODS
 
         if method.strip().lower() not in METHODS:
-            raise CLIError(f"--method must be rls, window or kalman for fleet, got {method!r}")
-        from ._engine import check_ranges
+            raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}")
+        from ._engine import check_gradient, check_ranges
         from ._fleet import check_outputs, fleet_command, summary_text, write_result
 
         check_ranges(forgetting=forgetting, P0=p0, process_cov=process_cov, noise_var=noise_var)
+        check_gradient(method.strip().lower(), step, eps, p0)
         check_outputs(data, output, tracks)
         result = fleet_command(data, group, y=y, phi=phi, model=model,
                                method=method.strip().lower(), time=time, scheduler=scheduler,
                                tracks=None if tracks is None else str(tracks),
                                forgetting=forgetting, window=window, process_cov=process_cov,
-                               noise_var=noise_var, P0=p0, alpha=alpha, nan_policy=nan_policy,
+                               noise_var=noise_var, P0=p0, step=step, eps=eps, alpha=alpha,
+                               nan_policy=nan_policy,
                                quiet=out.quiet or out.json or not sys.stderr.isatty())
         if output is not None:
             write_result(result, output)

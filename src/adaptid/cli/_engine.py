@@ -75,7 +75,7 @@ class MethodSpec:
                                "random-walk step per sample)")
             if self.P0 is not None and m == "batch":
                 raise CLIError("--P0 does not apply to --method batch (batch least squares has no prior)")
-            _check_gradient(m, self.step, self.eps, self.P0)
+            check_gradient(m, self.step, self.eps, self.P0)
         if save_state is not None and (self.method == "batch"):
             raise CLIError("--save-state does not apply to --method batch (no recursive state)")
         if self.window is not None and self.window < 1:
@@ -186,7 +186,7 @@ def check_ranges(*, forgetting=None, P0=None, process_cov=None, noise_var=None):
 _GRADIENT = ("lms", "nlms")
 
 
-def _check_gradient(m, step, eps, P0):
+def check_gradient(m, step, eps, P0):
     """The options of the gradient methods (--step, --eps) and what they exclude."""
     if step is not None and m not in _GRADIENT:
         raise CLIError(f"--step applies to --method lms or nlms only, not --method {m}")
