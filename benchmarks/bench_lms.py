@@ -9,8 +9,10 @@ Contenders, all on the same generated data (φ ~ N(0, I), y = φᵀθ* + 0.1·no
   finiteness check and a weight per sample, θ and ε stored per sample);
   and with ``store=False``;
 * a C loop of the same update (``benchmarks/c/lms_ref.c``) compiled at run
-  time with ``gcc -O3 -march=native``, built with n a compile-time constant
-  and with n at run time (the faster of the two in each round is the target),
+  time with ``gcc -O3 -march=native``, built three ways — n a compile-time
+  constant, n at run time, and n constant with the dot products summed in
+  four partial sums for n ≥ 8 as adaptid's kernel sums them — the fastest of
+  the three in each round being the target,
   storing θ and ε per sample like adaptid; and without storing (against
   adaptid's ``store=False``);
 * padasip ``FilterLMS(n, mu=μ, w="zeros").run(y, Phi)`` /
@@ -64,16 +66,19 @@ def gcc_version():
     return out.stdout.splitlines()[0] if out.stdout else gcc
 
 
-def build_c(fixed_n=None):
-    """Compile lms_ref.c into benchmarks/_build (n fixed at compile time or not)."""
+def build_c(fixed_n=None, split4=False):
+    """Compile lms_ref.c into benchmarks/_build (n fixed at compile time or not; the
+    dot products summed sequentially or, like adaptid's kernel, in four partial sums)."""
     gcc = shutil.which("gcc")
     if gcc is None:
         return None
-    flags = C_FLAGS + ([f"-DLMS_N={fixed_n}"] if fixed_n else [])
+    flags = C_FLAGS + ([f"-DLMS_N={fixed_n}"] if fixed_n else []) + \
+        (["-DLMS_SPLIT4=1"] if split4 else [])
     tag = hashlib.sha256(C_SOURCE.read_bytes() + " ".join(flags).encode()
                          + (gcc_version() or "").encode()).hexdigest()[:12]
     BUILD_DIR.mkdir(parents=True, exist_ok=True)
-    lib = BUILD_DIR / f"lms_ref_{'n%d' % fixed_n if fixed_n else 'nany'}_{tag}.so"
+    lib = BUILD_DIR / (f"lms_ref_{'n%d' % fixed_n if fixed_n else 'nany'}"
+                       f"{'_split4' if split4 else ''}_{tag}.so")
     if not lib.exists():
         tmp = lib.with_name(f".{lib.name}.{os.getpid()}.tmp")
         subprocess.run([gcc, *flags, str(C_SOURCE), "-o", str(tmp)], check=True)
@@ -171,7 +176,8 @@ def main(argv=None):
         for n in (4, 8, 16):
             libs = {}
             if shutil.which("gcc"):
-                libs = {"fixed_n": build_c(n), "any_n": build_c(None)}
+                libs = {"fixed_n": build_c(n), "any_n": build_c(None),
+                        "split4": build_c(n, split4=True)}
             per = bench(kind, n, N, N_py, rounds, libs, rng)
             rate = {k: 1e-6 / statistics.median(v) for k, v in per.items()}
 
@@ -181,9 +187,8 @@ def main(argv=None):
                     f"(store=False {rate['adaptid_nostore']:7.1f}), padasip "
                     f"{rate['padasip']:.3f} M/s ({ratio('padasip', 'adaptid'):.0f} x)")
             if libs:
-                best = [min(a, b) for a, b in zip(per["c_fixed_n"], per["c_any_n"])]
-                best_ns = [min(a, b) for a, b in zip(per["c_fixed_n_nostore"],
-                                                     per["c_any_n_nostore"])]
+                best = [min(t) for t in zip(*(per[f"c_{k}"] for k in libs))]
+                best_ns = [min(t) for t in zip(*(per[f"c_{k}_nostore"] for k in libs))]
                 r = statistics.median(c / a for c, a in zip(best, per["adaptid"]))
                 r_ns = statistics.median(c / a for c, a in zip(best_ns, per["adaptid_nostore"]))
                 line += (f"; C {1e-6 / statistics.median(best):7.1f} M/s -> {r:.2f} x the C loop"

@@ -243,6 +243,23 @@ def test_nan_policy(rng, kind):
     assert np.isnan(MAKERS[kind](nan_policy="skip").update(Phi[0], np.nan))
 
 
+def test_overflowing_phi_norm_is_not_a_missing_sample():
+    # The kernel tests finiteness through φᵀφ and ε first, then exactly: a
+    # finite φ whose φᵀφ overflows must be used, not skipped.
+    phi = np.array([1e200, 1.0])
+    est = adaptid.NLMS(2, step=0.5, nan_policy="skip", theta0=[0.0, 0.0])
+    assert est.update(phi, 1.0) == 1.0 and est.n_skipped == 0 and est.n_updates == 1
+    assert np.array_equal(est.theta, [0.0, 0.0])  # μ/(ε + inf) = 0, as padasip: no step
+    f = padasip.filters.FilterNLMS(n=2, mu=0.5, eps=est.eps, w="zeros")
+    with np.errstate(over="ignore"):
+        f.adapt(1.0, phi)
+    assert np.array_equal(f.w, est.theta)
+    est = adaptid.LMS(2, step=1e-300, nan_policy="skip")
+    est.update(phi, 2.0)
+    assert est.n_skipped == 0
+    np.testing.assert_array_equal(est.theta, 1e-300 * phi * 2.0)  # θ = μ φ ε exactly
+
+
 def test_no_covariance_no_forgetting(rng):
     est = adaptid.LMS(2, step=0.1)
     with pytest.raises(AttributeError, match="no covariance P"):

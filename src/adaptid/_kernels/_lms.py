@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit, prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
-from ._bierman import NONPOSITIVE, SKIPPED, _one_sample, _segment_start
+from ._bierman import NONPOSITIVE, SKIPPED, _finite_row, _one_sample, _segment_start
 from ._dims import dim
 from ._scratch import scratch, small_scratch
 
@@ -82,29 +82,34 @@ def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
     for i in range(NP * p):
         th[i] = S[i]
     mu = opt[1]
-    bias = opt[2]
+    bias = opt[2] if norm else 0.0  # LMS: φᵀφ serves the finiteness test only
     e = small_scratch(p)
     store = Th.shape[0] == Phi.shape[0]
     bad = -1
     for k in range(Phi.shape[0]):
         phi = Phi[k]
-        ok = True  # all of the row finite; tested without branches
-        for i in range(NP):
-            ok &= phi[i] - phi[i] == 0.0
+        # Finiteness of the sample, cheaply: q = ε + φᵀφ is finite only if all
+        # of φ is, and εⱼ = yⱼ − φᵀθ only if yⱼ is. Both finite (the usual
+        # case): use the sample. Otherwise (a NaN / inf in the data, φᵀφ
+        # overflowing, or θ diverged) decide exactly on the values. This
+        # replaced a test of every φᵢ that cost NLMS 12 % at n = 8.
+        q = _dot(bias, 1.0, phi, phi, 0, 1, NP)
+        ok = q - q == 0.0
         for j in range(p):
-            ok &= Y[k, j] - Y[k, j] == 0.0
+            s = _dot(Y[k, j], -1.0, phi, th, j, p, NP)
+            e[j] = s
+            ok &= s - s == 0.0
+        if not ok:
+            ok = _finite_row(phi, Y[k], NP, p)
+            if ok and bad < 0:
+                for j in range(p):
+                    if not (e[j] - e[j] == 0.0):  # finite data, non-finite error: diverged
+                        bad = k
         if ok:
-            fin = True  # a finite error: θ has not diverged (checked on p values, not n·p)
             for j in range(p):
-                s = _dot(Y[k, j], -1.0, phi, th, j, p, NP)
-                e[j] = s
-                E[k, j] = s
-                fin &= s - s == 0.0
-            if bad < 0 and not fin:
-                bad = k
+                E[k, j] = e[j]
             g = mu * w[k]
             if norm:
-                q = _dot(bias, 1.0, phi, phi, 0, 1, NP)
                 g = g / q if q > 0.0 else 0.0  # φ = 0 with ε = 0: no step
             for i in range(NP):
                 gi = g * phi[i]
