@@ -338,6 +338,8 @@ def test_bad_options(small):
     with pytest.raises(TypeError, match="process_cov"):
         identify(small, group="device", y="v", phi=PHI, method="kalman")
     with pytest.raises(ValueError, match="method"):
+        identify(small, group="device", y="v", phi=PHI, method="lsm")
+    with pytest.raises(TypeError, match="step"):  # lms is a method since issue 16; it needs step
         identify(small, group="device", y="v", phi=PHI, method="lms")
     with pytest.raises(ValueError, match="forgetting"):
         identify(small, group="device", y="v", phi=PHI, forgetting=1.5)

@@ -5,6 +5,7 @@ Estimate θ in ``y[k] = θᵀ φ[k] + e[k]`` in one batch or sample by sample:
 * :class:`RLS` — recursive least squares with prior (ridge) and forgetting;
 * :class:`SlidingWindowRLS` — the truncated least squares method (TLSM);
 * :class:`KalmanRLS` — Kalman filter for a random-walk parameter;
+* :class:`LMS`, :class:`NLMS` — (normalised) least mean squares, stochastic gradient;
 * :func:`lstsq` — batch (weighted, ridge) least squares by QR;
 * :mod:`adaptid.constrained`, :mod:`adaptid.continuous`,
   :mod:`adaptid.models`, :mod:`adaptid.diagnostics`, :mod:`adaptid.datasets`,
@@ -21,6 +22,7 @@ from ._exceptions import (
     AdaptidWarning,
     CovarianceWindupWarning,
     DefinitenessLossWarning,
+    DivergenceWarning,
     ExcitationWarning,
     StateFileError,
 )
@@ -33,6 +35,8 @@ _LAZY = {
     "RLS": "adaptid.estimators",
     "SlidingWindowRLS": "adaptid.estimators",
     "KalmanRLS": "adaptid.estimators",
+    "LMS": "adaptid.estimators",
+    "NLMS": "adaptid.estimators",
     "Trajectory": "adaptid.estimators",
     "estimator": "adaptid.estimators",
     "recursive_fit_stats": "adaptid.estimators",
@@ -60,6 +64,7 @@ __all__ = [
     "AdaptidWarning",
     "CovarianceWindupWarning",
     "DefinitenessLossWarning",
+    "DivergenceWarning",
     "ExcitationWarning",
     "StateFileError",
     "__version__",

@@ -12,6 +12,7 @@ __all__ = [
     "DefinitenessLossWarning",
     "CovarianceWindupWarning",
     "ExcitationWarning",
+    "DivergenceWarning",
     "StateFileError",
     "InfeasibleError",
     "IllConditionedWarning",
@@ -43,6 +44,14 @@ class CovarianceWindupWarning(AdaptidWarning):
 
 class ExcitationWarning(AdaptidWarning):
     """The data do not excite every parameter direction."""
+
+
+class DivergenceWarning(AdaptidWarning):
+    """A gradient estimator's θ left the finite numbers (LMS/NLMS step too large).
+
+    LMS is stable in the mean only for a step μ < 2/λ_max(E φφᵀ); NLMS for
+    0 < μ < 2.
+    """
 
 
 class StateFileError(ValueError):

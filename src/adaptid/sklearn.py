@@ -30,7 +30,9 @@ from .estimators import METHODS as _FACTORY_METHODS
 
 __all__ = ["RLSRegressor"]
 
-_METHODS = ("auto",) + _FACTORY_METHODS
+# the least-squares methods of the factory; the gradient ones (lms, nlms: a
+# step, no prior P0, no forgetting) are not offered by this regressor
+_METHODS = ("auto",) + tuple(m for m in _FACTORY_METHODS if m not in ("lms", "nlms"))
 
 
 def _validate(est, X, y="no_validation", *, reset, **kw):

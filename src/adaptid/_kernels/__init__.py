@@ -1,7 +1,8 @@
 """Layer 1: every numba-compiled function of adaptid, split by algorithm.
 
 * :mod:`._bierman` — the U-D (Bierman) building blocks shared by all streams;
-* :mod:`._rls`, :mod:`._strategy`, :mod:`._kalman`, :mod:`._window` — one
+* :mod:`._rls`, :mod:`._strategy`, :mod:`._kalman`, :mod:`._window`,
+  :mod:`._lms` — one
   module per recursive algorithm, each with the four entry points of one
   common signature (``update``, ``run``, ``run_batched``, ``run_segments``);
 * :mod:`._dims` — the tags that make n and p compile-time constants
@@ -16,7 +17,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-__all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "tags"]
+__all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "NLMS", "tags"]
 
 from ._cache import install as _install_cache
 from ._dims import tags
@@ -44,7 +45,8 @@ def __getattr__(name):
     # loaded on first use, so that importing one algorithm does not load numba
     # dispatchers of the others
     table = {"RLS": ("_rls", "rls"), "STRATEGY": ("_strategy", "strategy"),
-             "KALMAN": ("_kalman", "kalman"), "WINDOW": ("_window", "window")}
+             "KALMAN": ("_kalman", "kalman"), "WINDOW": ("_window", "window"),
+             "LMS": ("_lms", "lms"), "NLMS": ("_lms", "nlms")}
     if name in table:
         value = _entries(*table[name])
         globals()[name] = value

@@ -248,7 +248,8 @@ def fit(
                                                       "(default) or the mean over the last interval "
                                                       "(differenced encoder counts).",
                                                       rich_help_panel="Model")] = None,
-    method: Annotated[Optional[str], typer.Option("--method", "-m", metavar="rls|window|kalman|batch",
+    method: Annotated[Optional[str], typer.Option("--method", "-m",
+                                                  metavar="rls|window|kalman|lms|nlms|batch",
                                                   help="Estimator (default rls).",
                                                   rich_help_panel="Method")] = None,
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1] (rls, window).",
@@ -262,6 +263,10 @@ def fit(
                                                        rich_help_panel="Method")] = None,
     p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I (default 1e4).",
                                                 rich_help_panel="Method")] = None,
+    step: Annotated[Optional[float], typer.Option("--step", help="Adaptation gain μ > 0 (lms, nlms).",
+                                                  rich_help_panel="Method")] = None,
+    eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε ≥ 0 (nlms; "
+                                                 "default 2.2e-16).", rich_help_panel="Method")] = None,
     nan: Annotated[str, typer.Option("--nan", metavar="skip|error", help="Rows with missing values: "
                                      "skip them (counted) or stop with an error.")] = "error",
     out_dir: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write a report folder.")] = None,
@@ -298,7 +303,8 @@ def fit(
         if method is not None:
             method = method.strip().lower()
         spec = MethodSpec(method=method, forgetting=forgetting, window=window,
-                          process_cov=process_cov, noise_var=noise_var, P0=p0)
+                          process_cov=process_cov, noise_var=noise_var, P0=p0,
+                          step=step, eps=eps)
         result = run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
                          save_state=save_state, resume=resume, output=out, tracks=tracks,
                          summary=summary, export_c=export_c, c_name=c_name, float32=float32)
@@ -320,12 +326,14 @@ def fleet(
                                                  "Regression (instead of --y/--phi).")] = None,
     time: Annotated[Optional[str], typer.Option("--time", help="Ordering column (rows sorted by it "
                                                 "within each device; default: stored order).")] = None,
-    method: Annotated[str, typer.Option("--method", "-m", metavar="rls|window|kalman")] = "rls",
+    method: Annotated[str, typer.Option("--method", "-m", metavar="rls|window|kalman|lms|nlms")] = "rls",
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1].")] = None,
     window: Annotated[Optional[int], typer.Option("--window", help="Window length M.")] = None,
     process_cov: Annotated[Optional[float], typer.Option("--process-cov", help="R1 (kalman).")] = None,
     noise_var: Annotated[Optional[float], typer.Option("--noise-var", help="R2 (kalman).")] = None,
     p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I.")] = None,
+    step: Annotated[Optional[float], typer.Option("--step", help="Adaptation gain μ (lms, nlms).")] = None,
+    eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε (nlms).")] = None,
     alpha: Annotated[float, typer.Option("--alpha", help="Level of the change test: the fleet's "
                                          "false discovery rate with --multiple bh.")] = 0.05,
     change_test: Annotated[str, typer.Option("--change-test", metavar="supF|re|cusum|cusum2|a-priori",
@@ -360,11 +368,12 @@ def fleet(
         from adaptid.estimators import METHODS
 
         if method.strip().lower() not in METHODS:
-            raise CLIError(f"--method must be rls, window or kalman for fleet, got {method!r}")
-        from ._engine import check_ranges
+            raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}")
+        from ._engine import check_gradient, check_ranges
         from ._fleet import check_outputs, fleet_command, summary_text, write_result
 
         check_ranges(forgetting=forgetting, P0=p0, process_cov=process_cov, noise_var=noise_var)
+        check_gradient(method.strip().lower(), step, eps, p0)
         tests = {t.lower(): t for t in ("supF", "re", "cusum", "cusum2", "a-priori")}
         if change_test.strip().lower() not in tests:
             raise CLIError(f"--change-test must be one of {', '.join(tests.values())}, "
@@ -376,7 +385,8 @@ def fleet(
                                method=method.strip().lower(), time=time, scheduler=scheduler,
                                tracks=None if tracks is None else str(tracks),
                                forgetting=forgetting, window=window, process_cov=process_cov,
-                               noise_var=noise_var, P0=p0, alpha=alpha, nan_policy=nan_policy,
+                               noise_var=noise_var, P0=p0, step=step, eps=eps, alpha=alpha,
+                               nan_policy=nan_policy,
                                change_test=tests[change_test.strip().lower()],
                                multiple=multiple.strip().lower(),
                                quiet=out.quiet or out.json or not sys.stderr.isatty())

@@ -44,6 +44,8 @@ class MethodSpec:
     process_cov: float | None = None
     noise_var: float | None = None
     P0: float | None = None
+    step: float | None = None   # lms, nlms
+    eps: float | None = None    # nlms
 
     @property
     def resolved(self) -> str:
@@ -73,6 +75,7 @@ class MethodSpec:
                                "random-walk step per sample)")
             if self.P0 is not None and m == "batch":
                 raise CLIError("--P0 does not apply to --method batch (batch least squares has no prior)")
+            check_gradient(m, self.step, self.eps, self.P0)
         if save_state is not None and (self.method == "batch"):
             raise CLIError("--save-state does not apply to --method batch (no recursive state)")
         if self.window is not None and self.window < 1:
@@ -90,7 +93,8 @@ class MethodSpec:
         if m == "window" and self.window < n:
             raise CLIError(f"--window must be at least the number of parameters ({n}), got {self.window}")
         given = {"P0": self.P0, "forgetting": self.forgetting, "window": self.window,
-                 "process_cov": self.process_cov, "noise_var": self.noise_var}
+                 "process_cov": self.process_cov, "noise_var": self.noise_var,
+                 "step": self.step, "eps": self.eps}
         allowed = _method_options(m)
         kw = {k: v for k, v in given.items() if v is not None and k in allowed}
         try:
@@ -111,7 +115,9 @@ class MethodSpec:
                            f"regressors given have {n}")
         checks = [("--forgetting", self.forgetting, getattr(est, "forgetting", None)),
                   ("--window", self.window, getattr(est, "window", None)),
-                  ("--noise-var", self.noise_var, getattr(est, "noise_var", None))]
+                  ("--noise-var", self.noise_var, getattr(est, "noise_var", None)),
+                  ("--step", self.step, getattr(est, "step", None)),
+                  ("--eps", self.eps, getattr(est, "eps", None))]
         for opt, given, have in checks:
             if given is None:
                 continue
@@ -146,6 +152,8 @@ class MethodSpec:
             return f"window M={getattr(est, 'window', self.window)}"
         if m == "kalman":
             return "Kalman"
+        if m in _GRADIENT:
+            return f"{m.upper()} μ={_fmt_opt(getattr(est, 'step', self.step))}"
         return "batch LS"
 
 
@@ -173,6 +181,36 @@ def check_ranges(*, forgetting=None, P0=None, process_cov=None, noise_var=None):
         lo, hi, text = RANGES[opt]
         if not (math.isfinite(val) and lo <= val <= hi):
             raise CLIError(f"{opt} must be {text}, got {val:g}; {_REASON}")
+
+
+_GRADIENT = ("lms", "nlms")
+
+
+def check_gradient(m, step, eps, P0):
+    """The options of the gradient methods (--step, --eps) and what they exclude."""
+    if step is not None and m not in _GRADIENT:
+        raise CLIError(f"--step applies to --method lms or nlms only, not --method {m}")
+    if eps is not None and m != "nlms":
+        raise CLIError(f"--eps applies to --method nlms only, not --method {m}")
+    if m in _GRADIENT:
+        if step is None:
+            raise CLIError(f"--method {m} needs --step MU (the adaptation gain, > 0)")
+        if not (math.isfinite(step) and step > 0):
+            raise CLIError(f"--step must be finite and > 0, got {step:g}")
+        if eps is not None and not (math.isfinite(eps) and eps >= 0):
+            raise CLIError(f"--eps must be finite and >= 0, got {eps:g}")
+        if P0 is not None:
+            raise CLIError(f"--P0 does not apply to --method {m} (a gradient method has no "
+                           "covariance)")
+
+
+def _cov_or_nan(est):
+    """P, or NaN for the gradient estimators (no covariance: NaN bands and stderr)."""
+    try:
+        return est.P
+    except AttributeError:
+        n = est.n_params
+        return np.full((n, n), np.nan)
 
 
 def _method_options(method):
@@ -239,7 +277,7 @@ def run_chunked(est, Phi, y, *, n_chunks=200, advance=None):
         errors.append(tr.error)
         skipped.append(tr.skipped)
         rebuilds += tr.n_rebuilds
-        Ps.append(est.P)
+        Ps.append(_cov_or_nan(est))
         ends.append(b - 1)
         if advance is not None:
             advance(int(b - a))
@@ -275,7 +313,7 @@ def fit_equation(title, names, Phi, y, index, spec: MethodSpec, *, nan_policy="r
             sigma2 = stats.sigma2
             r2 = float(getattr(est, "noise_var", 1.0))
             scale = sigma2 / r2 if np.isfinite(sigma2) else np.nan
-            cov = scale * est.P
+            cov = scale * _cov_or_nan(est)
             band = np.sqrt(np.maximum(scale * np.diagonal(Ps, axis1=1, axis2=2), 0.0))
             finite = np.isfinite(err)
             fit = EquationFit(

@@ -50,7 +50,7 @@ def resolve_model(spec):
 
 def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=None,
                   scheduler=None, tracks=None, *, forgetting=None, window=None,
-                  process_cov=None, noise_var=None, P0=None, alpha=0.05,
+                  process_cov=None, noise_var=None, P0=None, step=None, eps=None, alpha=0.05,
                   nan_policy="raise", change_test="supF", multiple="bh", npartitions=None,
                   quiet=False):
     """Run :func:`adaptid.fleet.identify` for the command line.
@@ -65,13 +65,13 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
         Regressor columns; comma-separated names are split.
     model : str, optional
         ``"package.module:callable"`` returning a Regression per group.
-    method : {"rls", "window", "kalman"}
+    method : {"rls", "window", "kalman", "lms", "nlms"}
     scheduler : str, optional
         ``None`` (in-process), ``"local"`` (start a LocalCluster) or a
         scheduler address.
     tracks : str, optional
         Directory for the per-sample estimates (Parquet).
-    forgetting, window, process_cov, noise_var, P0 : optional
+    forgetting, window, process_cov, noise_var, P0, step, eps : optional
         Estimator options; ``None`` leaves the estimator's default.
     alpha, nan_policy, change_test, multiple, npartitions
         As in :func:`adaptid.fleet.identify`.
@@ -86,7 +86,7 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
     from adaptid.fleet import identify  # layer 8, on demand
     options = {k: v for k, v in dict(forgetting=forgetting, window=window,
                                      process_cov=process_cov, noise_var=noise_var,
-                                     P0=P0).items() if v is not None}
+                                     P0=P0, step=step, eps=eps).items() if v is not None}
     source = read_frame(data) if is_single_file(data) else data
     return identify(source, group=group, y=y, phi=_split_names(phi),
                     model=resolve_model(model), method=method, time=time,

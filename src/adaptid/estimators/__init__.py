@@ -1,6 +1,7 @@
 """Layer 2: the recursive estimators on one engine, their results, state files, factory.
 
-* :class:`RLS`, :class:`SlidingWindowRLS`, :class:`KalmanRLS` — algorithms
+* :class:`RLS`, :class:`SlidingWindowRLS`, :class:`KalmanRLS`, :class:`LMS`,
+  :class:`NLMS` — algorithms
   on the engine :class:`RecursiveEstimator` (update / run / run_batched /
   run_segments / predict / state files, written once);
 * :func:`estimator` — the one map from a method name to an estimator;
@@ -12,6 +13,7 @@
 from ._engine import RecursiveEstimator
 from ._factory import METHODS, estimator, method_of, method_options
 from ._kalman import KalmanRLS
+from ._lms import LMS, NLMS
 from ._rls import RLS
 from ._segments import SegmentResult
 from ._settings import KernelSettings
@@ -20,11 +22,11 @@ from ._stats import RecursiveFitStats, recursive_fit_stats, sample_factors
 from ._trajectory import Trajectory
 from ._window import SlidingWindowRLS
 
-for _cls in (RLS, SlidingWindowRLS, KalmanRLS):
+for _cls in (RLS, SlidingWindowRLS, KalmanRLS, LMS, NLMS):
     register_state_class(_cls.__name__, _cls)
 del _cls
 
-__all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS", "RecursiveEstimator", "Trajectory",
+__all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS", "RecursiveEstimator", "Trajectory",
            "SegmentResult", "estimator", "METHODS", "method_of", "method_options",
            "recursive_fit_stats", "RecursiveFitStats", "sample_factors", "KernelSettings",
            "load_state", "save_state", "register_state_class"]

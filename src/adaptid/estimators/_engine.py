@@ -14,7 +14,10 @@ algorithm (:class:`~adaptid.RLS`, :class:`~adaptid.SlidingWindowRLS`,
   :meth:`_lam_run`) and the dict of :meth:`_options`,
 * its state layout (:meth:`_state_length`, :meth:`_fill_initial`,
   :meth:`_check_state`) and what the kernel's return code means
-  (``_code_is_rebuilds``).
+  (``_code_is_rebuilds``),
+* whether its state holds a covariance (``_has_covariance``): the gradient
+  estimators (:class:`~adaptid.LMS`, :class:`~adaptid.NLMS`) keep only θ, have
+  no prior covariance ``P0``, no ``P``, no ``excitation`` and no windup watch.
 """
 
 from __future__ import annotations
@@ -73,6 +76,8 @@ class RecursiveEstimator:
     _code_is_rebuilds = False
     #: the kernel reports the forgetting factor applied per sample (strategies)
     _reports_forgetting = False
+    #: the state holds the U-D factors of a covariance P after θ (False: θ only)
+    _has_covariance = True
 
     def __init__(self, n_params, *, theta0=None, P0=1e4, nan_policy="raise",
                  n_outputs=None, windup_threshold=None):
@@ -97,8 +102,12 @@ class RecursiveEstimator:
         self.n_outputs = th0.shape[1]
         self._single = single
         self.theta0 = th0
-        self.P0 = check_spd(P0, "P0", n)
-        self._U0, self._D0 = ud_from_P(self.P0)
+        if not self._has_covariance:
+            self.P0 = None
+            windup_threshold = np.inf  # nothing to wind up
+        else:
+            self.P0 = check_spd(P0, "P0", n)
+            self._U0, self._D0 = ud_from_P(self.P0)
         if windup_threshold is None:
             scale = float(np.max(np.diag(self.P0)))
             Q = getattr(self, "process_cov", None)
@@ -185,7 +194,14 @@ class RecursiveEstimator:
         th = S[..., : n * p].reshape(S.shape[:-1] + (n, p))
         return th[..., 0] if self._single else th
 
+    def _no_covariance(self, what):
+        return AttributeError(
+            f"{type(self).__name__} has no {what}: a gradient estimator keeps only θ, "
+            "no covariance P (use RLS or KalmanRLS for one)")
+
     def _ud_views(self, S):
+        if not self._has_covariance:
+            raise self._no_covariance("covariance factor")
         n, p = self.n_params, self.n_outputs
         U = np.swapaxes(S[..., n * p: n * p + n * n].reshape(S.shape[:-1] + (n, n)), -1, -2)
         D = S[..., n * p + n * n: n * p + n * n + n]
@@ -198,7 +214,12 @@ class RecursiveEstimator:
 
     @property
     def P(self) -> np.ndarray:
-        """Current covariance (n, n), or (B, n, n), formed from its U-D factors."""
+        """Current covariance (n, n), or (B, n, n), formed from its U-D factors.
+
+        AttributeError for the gradient estimators (LMS, NLMS), which have none.
+        """
+        if not self._has_covariance:
+            raise self._no_covariance("covariance P")
         U, D = self._ud_views(self._S)
         return P_from_ud(U, D)
 
@@ -405,8 +426,11 @@ class RecursiveEstimator:
         window plus the decayed prior. A value near zero (relative to the
         regressors' scale) means some direction is not excited: its
         parameter combination is not identifiable from the recent data.
-        Float, or (B,) after ``run_batched``.
+        Float, or (B,) after ``run_batched``. AttributeError for the gradient
+        estimators (no P).
         """
+        if not self._has_covariance:
+            raise self._no_covariance("excitation (it needs the covariance P)")
         ev = np.linalg.eigvalsh(self.P)
         return 1.0 / ev[..., -1] if self._batch is not None else float(1.0 / ev[-1])
 
@@ -562,7 +586,7 @@ class RecursiveEstimator:
         sse = np.empty((G, E.shape[1]))
         segment_stats(E, skipped, off, n_skip, sse)
         n_used = np.diff(off) - n_skip
-        U, D = self._ud_views(Sout)
+        P = P_from_ud(*self._ud_views(Sout)) if self._has_covariance else None
         theta = self._theta_view(Sout).copy()
         if self._single:
             E, sse = E[:, 0], sse[:, 0]
@@ -570,7 +594,7 @@ class RecursiveEstimator:
         elif not store:
             Th = None
         self._warn_segments(status)
-        return SegmentResult(theta=theta, P=P_from_ud(U, D), n_samples=n_used,
+        return SegmentResult(theta=theta, P=P, n_samples=n_used,
                              n_skipped=n_skip, sse=sse, error=E, skipped=skipped,
                              theta_track=Th, offsets=off, status=status)
 
@@ -635,7 +659,7 @@ class RecursiveEstimator:
             "single_output": self._single,
             "options": self._options(),
             "theta0": self.theta0.copy(),
-            "P0": self.P0.copy(),
+            "P0": None if self.P0 is None else self.P0.copy(),
             "state": self._S.copy(),
             "batch": self._batch,
             "n_updates": self.n_updates,

@@ -17,10 +17,17 @@ _SPECIFIC = {
     "rls": ("forgetting", "P_max"),
     "window": ("window", "forgetting"),
     "kalman": ("process_cov", "noise_var"),
+    "lms": ("step",),
+    "nlms": ("step", "eps"),
 }
-_REQUIRED = {"window": ("window",), "kalman": ("process_cov",)}
+_REQUIRED = {"window": ("window",), "kalman": ("process_cov",), "lms": ("step",),
+             "nlms": ("step",)}
 _COMMON = ("theta0", "P0", "nan_policy", "n_outputs", "windup_threshold")
-_CLASSES = {"rls": "RLS", "window": "SlidingWindowRLS", "kalman": "KalmanRLS"}
+#: the gradient methods keep no covariance: no P0, no windup threshold
+_GRADIENT = ("lms", "nlms")
+_COMMON_GRADIENT = ("theta0", "nan_policy", "n_outputs")
+_CLASSES = {"rls": "RLS", "window": "SlidingWindowRLS", "kalman": "KalmanRLS", "lms": "LMS",
+            "nlms": "NLMS"}
 
 #: The method names, in the order the documentation lists them.
 METHODS = tuple(_SPECIFIC)
@@ -29,14 +36,16 @@ METHODS = tuple(_SPECIFIC)
 def method_options(method: str) -> tuple[str, ...]:
     """The keyword options :func:`estimator` accepts for ``method``."""
     method = check_choice(method, "method", METHODS)
-    return _SPECIFIC[method] + _COMMON
+    return _SPECIFIC[method] + (_COMMON_GRADIENT if method in _GRADIENT else _COMMON)
 
 
 def _classes():
     from ._kalman import KalmanRLS
+    from ._lms import LMS, NLMS
     from ._rls import RLS
     from ._window import SlidingWindowRLS
-    return {"rls": RLS, "window": SlidingWindowRLS, "kalman": KalmanRLS}
+    return {"rls": RLS, "window": SlidingWindowRLS, "kalman": KalmanRLS, "lms": LMS,
+            "nlms": NLMS}
 
 
 def method_of(est) -> str:
@@ -53,22 +62,26 @@ def estimator(method, n_params, **options):
 
     Parameters
     ----------
-    method : {"rls", "window", "kalman"}
+    method : {"rls", "window", "kalman", "lms", "nlms"}
         ``"rls"``: :class:`~adaptid.RLS` (exponential forgetting or a
         strategy of :mod:`adaptid.forgetting`, ``P_max``);
         ``"window"``: :class:`~adaptid.SlidingWindowRLS` (needs ``window``);
-        ``"kalman"``: :class:`~adaptid.KalmanRLS` (needs ``process_cov``).
+        ``"kalman"``: :class:`~adaptid.KalmanRLS` (needs ``process_cov``);
+        ``"lms"``: :class:`~adaptid.LMS` (needs ``step``);
+        ``"nlms"``: :class:`~adaptid.NLMS` (needs ``step``; ``eps``).
     n_params : int
         Number of parameters n.
     **options
-        The estimator's keyword options: ``theta0``, ``P0``, ``nan_policy``,
-        ``n_outputs``, ``windup_threshold`` for every method, and
+        The estimator's keyword options: ``theta0``, ``nan_policy``,
+        ``n_outputs`` for every method, ``P0``, ``windup_threshold`` for the
+        least-squares ones (not lms / nlms: no covariance), and
         ``forgetting``, ``P_max`` (rls), ``window``, ``forgetting`` (window),
-        ``process_cov``, ``noise_var`` (kalman).
+        ``process_cov``, ``noise_var`` (kalman), ``step`` (lms), ``step``,
+        ``eps`` (nlms).
 
     Returns
     -------
-    RLS, SlidingWindowRLS or KalmanRLS
+    RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS
 
     Raises
     ------

@@ -55,7 +55,8 @@ _ARRAYS = ("theta0", "P0", "state", "process_cov")  # the arrays of a core estim
 #: yet is looked up in the module that defines it, by name, on first use.
 _REGISTRY: dict = {}
 _DEFINED_IN = {"RLS": "adaptid.estimators", "SlidingWindowRLS": "adaptid.estimators",
-               "KalmanRLS": "adaptid.estimators", "ConstrainedRLS": "adaptid.constrained"}
+               "KalmanRLS": "adaptid.estimators", "LMS": "adaptid.estimators",
+               "NLMS": "adaptid.estimators", "ConstrainedRLS": "adaptid.constrained"}
 
 
 def register_state_class(name: str, cls) -> None:
@@ -71,7 +72,7 @@ def _lookup(name):
 
 
 def _classes():
-    return {k: _lookup(k) for k in ("RLS", "SlidingWindowRLS", "KalmanRLS")}
+    return {k: _lookup(k) for k in ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS")}
 
 
 def estimator_from_state(state: dict):
@@ -101,8 +102,9 @@ def _build(cls, kind, state):
     theta0 = np.asarray(state["theta0"])
     if theta0.ndim != 2:
         raise ValueError(f"state['theta0'] must be 2-dimensional (n, p), got shape {theta0.shape}")
-    kwargs = dict(theta0=theta0 if not state["single_output"] else theta0[:, 0],
-                  P0=np.asarray(state["P0"]), **opts)
+    kwargs = dict(theta0=theta0 if not state["single_output"] else theta0[:, 0], **opts)
+    if getattr(cls, "_has_covariance", True):  # the gradient estimators have no P0
+        kwargs["P0"] = np.asarray(state["P0"])
     if not state["single_output"]:
         kwargs["n_outputs"] = int(state["n_outputs"])
     if kind == "SlidingWindowRLS":
@@ -141,7 +143,9 @@ def _payload(st: dict):
         arrays.update({names[key]: st[key] for key in names})
         return header, arrays
     opts = dict(st["options"])
-    arrays = {"theta0": st["theta0"], "P0": st["P0"], "state": st["state"]}
+    arrays = {"theta0": st["theta0"], "state": st["state"]}
+    if st["P0"] is not None:  # None: a gradient estimator (LMS, NLMS)
+        arrays["P0"] = st["P0"]
     if "process_cov" in opts:
         arrays["process_cov"] = np.asarray(opts.pop("process_cov"))
     header = {

@@ -32,7 +32,7 @@ def sample_factors(kind, N, *, forgetting=None, window=None, used=None):
 
     ``"rls"``: :math:`c_k = \prod_{i=k+1}^{N}\lambda_i` (1 without forgetting);
     ``"window"``: the same inside the last ``window`` used samples, 0 before;
-    ``"kalman"``: 1. Skipped samples (``used`` False) get 0 and take no time.
+    ``"kalman"``, ``"lms"``, ``"nlms"``: 1. Skipped samples (``used`` False) get 0 and take no time.
     """
     used = np.ones(N, dtype=bool) if used is None else np.asarray(used, dtype=bool)
     lam = np.ones(N) if forgetting is None else np.broadcast_to(
@@ -66,9 +66,14 @@ def recursive_fit_stats(est, Phi, y, *, weights=None, forgetting=None, used=None
     least squares: σ̂² = SSR/(N − n) and se = :func:`adaptid.lstsq`'s
     ``stderr``; for the window, the same over the samples in the window.
 
+    The gradient estimators (:class:`~adaptid.LMS`, :class:`~adaptid.NLMS`)
+    minimise no cost and keep no covariance: σ̂² is the same sum with
+    :math:`c_k = 1` (the final estimate's residual variance over the used
+    samples) and ``stderr`` is NaN.
+
     Parameters
     ----------
-    est : RLS, SlidingWindowRLS or KalmanRLS
+    est : RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS
         The estimator after its run (single stream, single output).
     Phi : array_like, shape (N, n)
     y : array_like, shape (N,)
@@ -111,6 +116,9 @@ def recursive_fit_stats(est, Phi, y, *, weights=None, forgetting=None, used=None
     n_eff = float(np.sum(c))
     dof = n_eff - n
     sigma2 = ssr / dof if dof > 0 else float("nan")
+    if not type(est)._has_covariance:  # LMS / NLMS: no P, no standard errors
+        return RecursiveFitStats(sigma2=sigma2, stderr=np.full(n, np.nan), dof=dof,
+                                 n_eff=n_eff, ssr=ssr)
     r2 = float(getattr(est, "noise_var", 1.0))
     diag = np.clip(np.diagonal(np.asarray(est.P)), 0.0, None)
     with np.errstate(invalid="ignore", over="ignore"):

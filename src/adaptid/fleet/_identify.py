@@ -363,8 +363,11 @@ def _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in):
         sigma2 = np.where(dof > 0, wss / np.where(dof > 0, dof, 1.0), np.nan)
         rms = np.sqrt(ss / count)
         noise_var = float(getattr(est, "noise_var", 1.0))
-        diagP = np.clip(np.diagonal(res.P, axis1=1, axis2=2), 0.0, None)
-        stderr = np.sqrt(diagP * (sigma2 / noise_var)[:, None])
+        if res.P is None:  # gradient methods (lms, nlms): no covariance, NaN stderr
+            stderr = np.full((G, n), np.nan)
+        else:
+            diagP = np.clip(np.diagonal(res.P, axis1=1, axis2=2), 0.0, None)
+            stderr = np.sqrt(diagP * (sigma2 / noise_var)[:, None])
 
     pvalue = np.full(G, np.nan)
     if change_test in _PVALUE_TESTS:
@@ -562,11 +565,16 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
         the first partition to learn them. ``Regression.index`` maps rows to
         positions in the group's record (used for ``change_at`` and tracks).
         ``y`` is then ignored (pass ``y=None``).
-    method : {"rls", "window", "kalman"}
+    method : {"rls", "window", "kalman", "lms", "nlms"}
         :class:`~adaptid.RLS` (options ``forgetting``, ``theta0``, ``P0``),
         :class:`~adaptid.SlidingWindowRLS` (``window`` required,
-        ``forgetting``, ``theta0``, ``P0``) or :class:`~adaptid.KalmanRLS`
-        (``process_cov`` required, ``noise_var``, ``theta0``, ``P0``).
+        ``forgetting``, ``theta0``, ``P0``), :class:`~adaptid.KalmanRLS`
+        (``process_cov`` required, ``noise_var``, ``theta0``, ``P0``),
+        :class:`~adaptid.LMS` (``step`` required, ``theta0``) or
+        :class:`~adaptid.NLMS` (``step`` required, ``eps``, ``theta0``).
+        The gradient methods keep no covariance: their ``stderr_<name>``
+        columns are NaN (σ̂² is computed as for the Kalman filter, every
+        used sample with factor 1).
     time : str, optional
         Ordering column: each group is sorted by it (stable: equal times keep
         their stored order). ``None``: rows are taken in their stored order.
