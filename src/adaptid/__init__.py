@@ -19,9 +19,11 @@ import importlib
 
 from ._exceptions import (
     AdaptidWarning,
+    CompilationCacheWarning,
     CovarianceWindupWarning,
     DefinitenessLossWarning,
     ExcitationWarning,
+    PrecisionWarning,
     StateFileError,
 )
 
@@ -62,6 +64,8 @@ __all__ = [
     "DefinitenessLossWarning",
     "ExcitationWarning",
     "StateFileError",
+    "CompilationCacheWarning",
+    "PrecisionWarning",
     "__version__",
     *_LAZY,
 ]

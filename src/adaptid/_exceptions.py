@@ -17,6 +17,8 @@ __all__ = [
     "IllConditionedWarning",
     "DataFileError",
     "CLIError",
+    "CompilationCacheWarning",
+    "PrecisionWarning",
 ]
 
 
@@ -43,6 +45,24 @@ class CovarianceWindupWarning(AdaptidWarning):
 
 class ExcitationWarning(AdaptidWarning):
     """The data do not excite every parameter direction."""
+
+
+class CompilationCacheWarning(AdaptidWarning):
+    """Compiled kernels are not cached on disk in this environment.
+
+    Emitted once, when the first kernel module is loaded, if no cache folder
+    is both writable and safe (owned by the current user or root, not
+    writable by group or others; see :mod:`adaptid._config`). adaptid then
+    compiles its kernels in every new process (slower start, same results).
+    """
+
+
+class PrecisionWarning(AdaptidWarning):
+    """A result lies outside the range float64 represents faithfully.
+
+    Emitted when standard errors overflow to inf, or when the data are so
+    small against the prior that an update cannot change the estimate.
+    """
 
 
 class StateFileError(ValueError):
