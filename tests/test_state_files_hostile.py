@@ -563,3 +563,14 @@ def test_load_state_time_of_a_normal_file_is_unchanged_by_the_checks(tmp_path):
     est.save_state(tmp_path / "w.npz")
     back = SlidingWindowRLS.load_state(tmp_path / "w.npz")
     assert back.get_state()["state"].tobytes() == est.get_state()["state"].tobytes()
+
+
+def test_huge_zip_directory_is_refused_before_parsing(tmp_path):
+    """100 000 tiny members: zipfile would build 100 000 entries from the directory; the
+    end record's count and size are checked first."""
+    path = tmp_path / "many.npz"
+    with zipfile.ZipFile(path, "w") as zf:
+        for i in range(100_000):
+            zf.writestr(f"m{i}.npy", b"")
+    assert path.stat().st_size > 5 * 2 ** 20
+    _bounded(lambda: _refused(path, "members"), seconds=5, megabytes=2)

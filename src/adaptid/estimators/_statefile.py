@@ -314,6 +314,7 @@ def load_state(path):
     path = Path(os.fspath(path))
     with _sr.open_regular(path) as fh:
         try:
+            _sr.check_end_record(path, fh)
             with zipfile.ZipFile(fh) as zf:
                 header, arrays, cls, own = _read_archive(path, zf)
         except StateFileError:

@@ -5,8 +5,10 @@ The order is what bounds time and memory (see :mod:`._statefile` for the format)
 1. The path must name a regular file (a FIFO, a device such as ``/dev/zero``,
    a directory are refused without being read; the file is opened with
    ``O_NONBLOCK`` and checked with ``fstat``, so a FIFO never blocks).
-2. The zip directory is read and checked: at most :data:`MAX_MEMBERS` members,
-   each ``<name>.npy``, once, stored or deflated, not encrypted.
+2. The zip's end record is checked (at most :data:`MAX_MEMBERS` members in
+   :data:`MAX_DIRECTORY_BYTES`) before the directory it points to is read; then
+   the directory: each member ``<name>.npy``, once, stored or deflated, not
+   encrypted.
 3. ``header.npy`` is read with a cap of :data:`MAX_HEADER_BYTES` and its JSON
    parsed (a nesting too deep for the parser is refused, not a RecursionError).
 4. The header's sizes are checked against fixed limits (:data:`MAX_PARAMS`,
@@ -26,6 +28,7 @@ from __future__ import annotations
 import json
 import os
 import stat
+import struct
 import zipfile
 
 import numpy as np
@@ -76,6 +79,32 @@ def open_regular(path):
     except BaseException:
         os.close(fd)
         raise
+
+
+#: Largest zip directory read (bytes): MAX_MEMBERS entries with short names.
+MAX_DIRECTORY_BYTES = 2 ** 16
+
+
+def check_end_record(path, fh):
+    """Check the zip's end record before ``zipfile`` reads the directory it points to.
+
+    The directory's declared size and entry count must fit :data:`MAX_DIRECTORY_BYTES`
+    and :data:`MAX_MEMBERS` (``zipfile`` would read and parse all of it, whatever its
+    size). The record is found as ``zipfile`` finds it: the last signature in the
+    final 64 KiB + 22 bytes (APPNOTE 4.3.16).
+    """
+    size = os.fstat(fh.fileno()).st_size
+    tail = min(size, 22 + 65535)
+    fh.seek(size - tail)
+    data = fh.read(tail)
+    fh.seek(0)
+    at = data.rfind(b"PK\x05\x06")
+    if at < 0 or len(data) - at < 22:
+        refuse(path, "truncated or corrupted state file (not a zip archive)")
+    entries, size_cd = struct.unpack("<HL", data[at + 10: at + 16])
+    if entries > MAX_MEMBERS or size_cd > MAX_DIRECTORY_BYTES:
+        refuse(path, f"the zip directory declares {entries} members in {size_cd} bytes "
+               f"(a state file has at most {MAX_MEMBERS} members)")
 
 
 def directory(path, zf):
