@@ -14,6 +14,10 @@ ragged lists, None. The contract (DESIGN.md, "Numerical rules"):
   bit for bit, ``n_updates``, ``n_skipped``, batch axis);
 * complex input is rejected, never silently cast to real.
 
+The fuzz also covers the bytes of state files (random mutations of a valid
+file: only ``StateFileError``, bounded time and memory) and the arguments of
+``adaptid fit`` (exit code 0 or 2, never 1 or a traceback).
+
 Default runs are short (``max_examples=60``); ``ADAPTID_SOAK=1`` or
 ``pytest -m soak`` run many more examples.
 """
@@ -557,3 +561,167 @@ def test_bug_lstsq_cov_with_infinite_sigma2():
     assert res.sigma2 == np.inf
     _no_bare_warnings(getattr, res, "cov")
     _no_bare_warnings(res.conf_int)
+
+
+# ------------------------------------------------------ state files: the bytes
+# A valid file of each kind is mutated at random (bytes overwritten, inserted,
+# deleted, ranges duplicated, the file truncated). The contract (issue 14): the
+# loader raises StateFileError only, or returns exactly the saved estimator (a
+# mutation of the zip's bookkeeping it does not read), and its time and memory
+# stay bounded (tracemalloc sees NumPy's and zlib's allocations).
+_STATE_FILES = {}
+
+
+def _state_file_bytes(kind):
+    if kind not in _STATE_FILES:
+        import tempfile
+        rng = np.random.default_rng(11)
+        Phi = rng.standard_normal((20, 3))
+        est = {"RLS": lambda: RLS(3, forgetting=0.98),
+               "SlidingWindowRLS": lambda: SlidingWindowRLS(3, 6),
+               "KalmanRLS": lambda: KalmanRLS(3, process_cov=1e-3)}[kind]()
+        est.run(Phi, Phi @ [1.0, 2.0, 3.0])
+        with tempfile.TemporaryDirectory() as folder:
+            est.save_state(os.path.join(folder, "s.npz"))
+            with open(os.path.join(folder, "s.npz"), "rb") as fh:
+                _STATE_FILES[kind] = (fh.read(), est.get_state())
+    return _STATE_FILES[kind]
+
+
+@st.composite
+def _mutated(draw, data):
+    b = bytearray(data)
+    for _ in range(draw(st.integers(1, 6))):
+        op = draw(st.sampled_from(["set", "set", "xor", "insert", "delete", "dup", "cut"]))
+        if not b:
+            break
+        i = draw(st.integers(0, len(b) - 1))
+        if op == "set":
+            b[i] = draw(st.integers(0, 255))
+        elif op == "xor":
+            b[i] ^= 1 << draw(st.integers(0, 7))
+        elif op == "insert":
+            b[i:i] = draw(st.binary(min_size=1, max_size=16))
+        elif op == "delete":
+            del b[i: i + draw(st.integers(1, 16))]
+        elif op == "dup":
+            j = draw(st.integers(i, min(len(b), i + 64)))
+            b[j:j] = b[i:j]
+        else:
+            del b[i:]
+    return bytes(b)
+
+
+def _same_state(a, b):
+    if set(a) != set(b):
+        return False
+    for k in a:
+        if isinstance(a[k], np.ndarray):
+            if a[k].tobytes() != np.asarray(b[k]).tobytes():
+                return False
+        elif k == "options":
+            if not _same_state(a[k], b[k]):
+                return False
+        elif a[k] != b[k]:
+            return False
+    return True
+
+
+def _fuzz_state_bytes(data, tmp_path_factory):
+    import time
+    import tracemalloc
+    kind = data.draw(st.sampled_from(["RLS", "SlidingWindowRLS", "KalmanRLS"]), label="kind")
+    raw, state = _state_file_bytes(kind)
+    bad = data.draw(_mutated(raw), label="mutated")
+    path = tmp_path_factory.getbasetemp() / "fuzz-state.npz"
+    path.write_bytes(bad)
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    try:
+        est = adaptid.load_state(path)
+    except adaptid.StateFileError as err:
+        assert str(err)
+        est = None
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    assert time.perf_counter() - t0 < 5.0
+    assert peak < 20 * 2 ** 20, peak            # the valid file is ~2 KB
+    if est is not None:                          # only the zip's bookkeeping was hit
+        assert _same_state(est.get_state(), state)
+
+
+@FUZZ
+@given(st.data())
+def test_fuzz_state_file_bytes(tmp_path_factory, data):
+    _fuzz_state_bytes(data, tmp_path_factory)
+
+
+@pytest.mark.soak
+@FUZZ_SOAK
+@given(st.data())
+def test_fuzz_state_file_bytes_soak(tmp_path_factory, data):
+    _fuzz_state_bytes(data, tmp_path_factory)
+
+
+# ------------------------------------------------------ the CLI's arguments
+# `adaptid fit` with random option values (numbers of every magnitude and sign,
+# NaN/inf spellings, words, empty strings, wrong column names, a state file that
+# may be damaged): the exit code is 0 or 2, never 1 ("internal error") and never
+# a traceback.
+_CLI_NUMBERS = st.one_of(
+    st.sampled_from(["0", "-1", "1", "0.5", "1e-300", "1e308", "1e400", "nan", "inf",
+                     "-inf", "", "abc", "1,5", "0x10", "1e-100", "1e100", "2", "3", "10"]),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(-10 ** 6, 10 ** 6).map(str))
+
+
+def _cli_env(tmp_path_factory):
+    folder = tmp_path_factory.getbasetemp() / "cli-fuzz"
+    if not (folder / "d.csv").exists():
+        folder.mkdir(exist_ok=True)
+        rng = np.random.default_rng(3)
+        Phi = rng.standard_normal((60, 2))
+        y = Phi @ [1.0, -1.0] + 0.1 * rng.standard_normal(60)
+        lines = ["a,b,y"] + [f"{a!r},{b!r},{c!r}" for (a, b), c in zip(Phi, y)]
+        (folder / "d.csv").write_text("\n".join(lines) + "\n")
+        est = RLS(2)
+        est.run(Phi, y)
+        est.save_state(folder / "s.npz")
+    return folder
+
+
+def _fuzz_cli(data, tmp_path_factory):
+    from typer.testing import CliRunner
+    from adaptid.cli._app import app
+    folder = _cli_env(tmp_path_factory)
+    args = ["fit", str(folder / "d.csv"), "--y",
+            data.draw(st.sampled_from(["y", "a", "nope", ""]), label="y")]
+    args += ["--phi", data.draw(st.sampled_from(["a,b", "a", "b,a", "a,a", "a,,b", "zz"]),
+                                label="phi")]
+    for opt in ("--forgetting", "--window", "--P0", "--process-cov", "--noise-var"):
+        if data.draw(st.booleans(), label=f"use {opt}"):
+            args += [opt, data.draw(_CLI_NUMBERS, label=opt)]
+    if data.draw(st.booleans(), label="use --method"):
+        args += ["--method", data.draw(st.sampled_from(
+            ["rls", "window", "kalman", "batch", "RLS", "bogus", ""]), label="method")]
+    if data.draw(st.booleans(), label="use --nan"):
+        args += ["--nan", data.draw(st.sampled_from(["skip", "error", "x"]), label="nan")]
+    if data.draw(st.booleans(), label="use --resume"):
+        state = folder / "s.npz"
+        raw = bytearray(state.read_bytes())
+        if data.draw(st.booleans(), label="damage the state"):
+            i = data.draw(st.integers(0, len(raw) - 1), label="byte")
+            raw[i] ^= 0xFF
+        (folder / "r.npz").write_bytes(bytes(raw))
+        args += ["--resume", str(folder / "r.npz")]
+    args.append("--json")
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code in (0, 2), (args, res.exit_code, res.output[-2000:])
+    assert "Traceback" not in res.output and "internal error" not in res.output, args
+
+
+@settings(max_examples=400 if SOAK else 40, derandomize=not SOAK, **_COMMON)
+@given(st.data())
+def test_fuzz_cli_fit_arguments(tmp_path_factory, data):
+    _fuzz_cli(data, tmp_path_factory)

@@ -20,10 +20,12 @@ import importlib
 
 from ._exceptions import (
     AdaptidWarning,
+    CompilationCacheWarning,
     CovarianceWindupWarning,
     DefinitenessLossWarning,
     DivergenceWarning,
     ExcitationWarning,
+    PrecisionWarning,
     StateFileError,
 )
 
@@ -67,6 +69,8 @@ __all__ = [
     "DivergenceWarning",
     "ExcitationWarning",
     "StateFileError",
+    "CompilationCacheWarning",
+    "PrecisionWarning",
     "__version__",
     *_LAZY,
 ]

@@ -1,11 +1,171 @@
-"""Numba flags and numerical thresholds, in one place.
+"""Numba flags, the compilation-cache policy and numerical thresholds, in one place.
 
 Every compiled kernel takes its decorator options from here, so that the
 whole library can be switched at once (e.g. ``NUMBA_DISABLE_JIT=1`` for
 coverage of the kernels' Python source).
+
+Compilation cache
+-----------------
+numba's cache files (``.nbi`` indexes and ``.nbc`` code) are pickles: loading
+one runs code. So adaptid caches only in a folder nobody else can write. Once,
+when this module is imported, it finds the folder numba would use for the
+kernels in ``adaptid/_kernels`` (numba's own order: ``NUMBA_CACHE_DIR``, then
+the in-tree ``__pycache__``, then the user-wide ``~/.cache/numba``, each only
+if it exists or can be created and is writable) and checks that it is
+*trusted*: a directory owned by the current user or root, not writable by
+group or others, in a parent that others cannot write either (or that has the
+sticky bit). If it is, :data:`CACHE` is True and kernels are cached there;
+otherwise nothing is cached or loaded from disk and one
+:class:`~adaptid.CompilationCacheWarning` says why (a read-only install with
+an unwritable HOME then works, compiling in every process). A damaged cache
+file (truncated ``.nbc``, garbage ``.nbi``) is treated as a miss: the kernel
+is recompiled and the entry rewritten (:func:`njit`).
 """
 
 import os
+import stat
+import sys
+import warnings
+
+from ._exceptions import CompilationCacheWarning
+
+_KERNELS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_kernels")
+
+
+def _user_cache_root():
+    """numba's user-wide cache folder (``AppDirs("numba").user_cache_dir``)."""
+    home = os.path.expanduser("~")
+    if sys.platform == "darwin":
+        return os.path.join(home, "Library", "Caches", "numba")
+    if os.name == "nt":
+        base = os.environ.get("LOCALAPPDATA") or os.path.join(home, "AppData", "Local")
+        return os.path.join(base, "numba", "Cache")
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(home, ".cache")
+    return os.path.join(base, "numba")
+
+
+def _subpath(folder):
+    """numba's sub-folder of a cache root for sources in ``folder``."""
+    import hashlib
+    return "_".join([os.path.basename(folder), hashlib.sha1(folder.encode()).hexdigest()])
+
+
+def _usable(path):
+    """numba's test: the folder exists or can be created, and is writable."""
+    try:
+        os.makedirs(path, mode=0o755, exist_ok=True)
+    except OSError:
+        return False
+    return os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK)
+
+
+def _untrusted(path):
+    """Why ``path`` is not a safe cache folder, or None if it is."""
+    if not hasattr(os, "getuid"):
+        return None  # no POSIX owners (Windows): the ACLs are the user's
+    me = os.getuid()
+    try:
+        st = os.stat(path)
+        parent = os.stat(os.path.dirname(os.path.abspath(path)))
+    except OSError as err:
+        return f"cannot be inspected ({err.strerror})"
+    if st.st_uid not in (me, 0):
+        return f"belongs to another user (uid {st.st_uid})"
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"is writable by group or others (mode {stat.S_IMODE(st.st_mode):o})"
+    if parent.st_mode & (stat.S_IWGRP | stat.S_IWOTH) and not parent.st_mode & stat.S_ISVTX:
+        return "is in a folder that others can write (without the sticky bit)"
+    return None
+
+
+def cache_decision():
+    """(cache?, folder, reason): where numba would cache adaptid's kernels, and whether
+    adaptid lets it (see the module docstring)."""
+    candidates = []
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        root = os.path.abspath(os.environ["NUMBA_CACHE_DIR"])
+        candidates.append(os.path.join(root, _subpath(_KERNELS)))
+    candidates.append(os.path.join(_KERNELS, "__pycache__"))
+    candidates.append(os.path.join(_user_cache_root(), _subpath(_KERNELS)))
+    for folder in candidates:
+        if _usable(folder):
+            why = _untrusted(folder)
+            return (why is None), folder, (None if why is None else f"{folder} {why}")
+    return False, None, "no writable cache folder (" + ", ".join(candidates) + ")"
+
+
+CACHE, CACHE_DIR, _why = cache_decision()
+if not CACHE:
+    warnings.warn(f"adaptid: compiled kernels are not cached: {_why}; they are compiled "
+                  "in every process (set NUMBA_CACHE_DIR to a private folder to cache them)",
+                  CompilationCacheWarning, stacklevel=2)
+
+
+def njit(*args, **options):
+    """``numba.njit`` with adaptid's cache: a damaged cache entry is a miss, not an error.
+
+    With ``cache=True`` the dispatcher's cache (numba's ``FunctionCache``) is
+    given :class:`_TolerantCache`'s methods: an index or code file that cannot
+    be unpickled (truncated, garbage) makes the kernel compile again and the
+    entry be rewritten. If numba's internals differ from what this expects,
+    numba's own cache is kept unchanged.
+    """
+    import numba
+
+    def wrap(fn):
+        cache = options.get("cache", False)
+        disp = numba.njit(**dict(options, cache=False))(fn)
+        if cache and hasattr(disp, "enable_caching"):  # not under NUMBA_DISABLE_JIT=1
+            disp.enable_caching()
+            cache_obj = getattr(disp, "_cache", None)
+            if type(cache_obj) is _tolerant_base():
+                cache_obj.__class__ = _tolerant_cache()
+        return disp
+    if args and callable(args[0]) and not options:
+        return wrap(args[0])
+    return wrap
+
+
+def _tolerant_base():
+    from numba.core.caching import FunctionCache
+    return FunctionCache
+
+
+_TOLERANT = []
+
+
+def _tolerant_cache():
+    """numba's FunctionCache whose load and save survive damaged files (built once)."""
+    if _TOLERANT:
+        return _TOLERANT[0]
+
+    class _TolerantCache(_tolerant_base()):
+        def load_overload(self, sig, target_context):
+            try:
+                return super().load_overload(sig, target_context)
+            except Exception:  # noqa: BLE001 - UnpicklingError, EOFError, OSError, ...
+                self._drop_index()
+                return None     # a miss: numba compiles
+
+        def save_overload(self, sig, data):
+            try:
+                super().save_overload(sig, data)
+            except Exception:  # noqa: BLE001 - the index was damaged: start it afresh
+                self._drop_index()
+                try:
+                    super().save_overload(sig, data)
+                except Exception:  # noqa: BLE001 - caching is only an optimisation
+                    pass
+
+        def _drop_index(self):
+            try:
+                self.flush()   # an empty index for this function (numba's own writer)
+            except Exception:  # noqa: BLE001
+                pass
+
+    _TOLERANT.append(_TolerantCache)
+    return _TolerantCache
+
 
 # fastmath={"contract"} lets LLVM fuse a*b + c into one FMA instruction (what
 # gcc -O3 does for C by default) and nothing else: no reassociation, no
@@ -13,12 +173,12 @@ import os
 # as written. Results are deterministic on a given machine; on a CPU without FMA
 # they differ in the last bits.
 
-#: Options of every public kernel (compiled once, cached on disk).
-NJIT = dict(cache=True, nogil=True, fastmath={"contract"})
+#: Options of every public kernel (compiled once, cached on disk if :data:`CACHE`).
+NJIT = dict(cache=CACHE, nogil=True, fastmath={"contract"})
 #: Options of kernels that run over independent streams in parallel.
-NJIT_PARALLEL = dict(cache=True, nogil=True, parallel=True, fastmath={"contract"})
+NJIT_PARALLEL = dict(cache=CACHE, nogil=True, parallel=True, fastmath={"contract"})
 #: Options of the small building blocks inlined into the kernels.
-NJIT_INLINE = dict(cache=True, inline="always", fastmath={"contract"})
+NJIT_INLINE = dict(cache=CACHE, inline="always", fastmath={"contract"})
 
 #: Largest number of parameters for which kernels are specialised (n as a
 #: compile-time constant, loops unrolled). Larger n use the generic kernels.

@@ -18,6 +18,8 @@ __all__ = [
     "IllConditionedWarning",
     "DataFileError",
     "CLIError",
+    "CompilationCacheWarning",
+    "PrecisionWarning",
 ]
 
 
@@ -51,6 +53,24 @@ class DivergenceWarning(AdaptidWarning):
 
     LMS is stable in the mean only for a step μ < 2/λ_max(E φφᵀ); NLMS for
     0 < μ < 2.
+    """
+
+
+class CompilationCacheWarning(AdaptidWarning):
+    """Compiled kernels are not cached on disk in this environment.
+
+    Emitted once, when the first kernel module is loaded, if no cache folder
+    is both writable and safe (owned by the current user or root, not
+    writable by group or others; see :mod:`adaptid._config`). adaptid then
+    compiles its kernels in every new process (slower start, same results).
+    """
+
+
+class PrecisionWarning(AdaptidWarning):
+    """A result lies outside the range float64 represents faithfully.
+
+    Emitted when standard errors overflow to inf, or when the data are so
+    small against the prior that an update cannot change the estimate.
     """
 
 

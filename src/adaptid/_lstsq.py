@@ -2,12 +2,14 @@ r"""Batch (weighted, ridge) least squares by QR."""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 from scipy import linalg, stats
 
+from ._exceptions import PrecisionWarning
 from ._validation import as_float_array, check_scalar, param_error
 
 __all__ = ["lstsq", "LSResult"]
@@ -218,11 +220,19 @@ class LSResult:
 
     @cached_property
     def stderr(self) -> np.ndarray:
-        """Standard errors √diag(cov): shape (n,) or (n, p)."""
+        """Standard errors √diag(cov): shape (n,) or (n, p).
+
+        An entry that overflows float64 is inf, with a :class:`~adaptid.PrecisionWarning`.
+        """
         d = np.hypot.reduce(self._Rinv, axis=1)  # row norms of R⁻¹ without overflow
         s = np.sqrt(np.asarray(self.sigma2))
         with np.errstate(over="ignore", invalid="ignore"):
-            return d * s if s.ndim == 0 else d[:, None] * s[None, :]
+            out = d * s if s.ndim == 0 else d[:, None] * s[None, :]
+        if np.isinf(out).any():
+            warnings.warn("lstsq: standard errors overflow float64 (inf): the design is "
+                          "nearly singular in absolute terms or the residuals are huge; "
+                          "rescale the columns of Phi or y", PrecisionWarning, stacklevel=2)
+        return out
 
     def conf_int(self, alpha=0.05) -> np.ndarray:
         r"""Two-sided (1 − α) confidence intervals from Student's t with N − n dof.
@@ -295,6 +305,9 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     N, n = Phi.shape
     if n == 0:
         raise param_error("Phi", "of shape (N, n) with n >= 1", f"<shape {Phi.shape}>")
+    if N == 0:
+        raise param_error("Phi", "of shape (N, n) with N >= 1 rows (no samples were given)",
+                          f"<shape {Phi.shape}>")
     Y = as_float_array(y, "y", ndim=(1, 2))
     if Y.shape[0] != N:
         raise param_error("y", f"of length N={N} (rows of Phi)", f"<shape {Y.shape}>")

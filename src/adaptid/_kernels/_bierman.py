@@ -31,9 +31,8 @@ helpers that return tuples (a refactor once tried) cost the sliding window
 """
 
 import numpy as np
-from numba import njit
 
-from .._config import NJIT, NJIT_INLINE
+from .._config import NJIT, NJIT_INLINE, njit
 
 # Status bits returned by the single-step kernels.
 SKIPPED = 1

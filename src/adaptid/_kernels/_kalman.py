@@ -9,9 +9,9 @@ and leaves the state untouched otherwise (the caller then raises).
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply, _bierman_prep, _d_below, \
     _finite_row, _gain_step, _one_sample, _prior_errors, _segment_start, _store, \
     _time_update, _views

@@ -11,9 +11,8 @@ compiled pass. No validation here.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
-from .._config import NJIT, NJIT_INLINE
+from .._config import NJIT, NJIT_INLINE, njit
 from ._bierman import _bierman_apply, _bierman_prep, _time_update
 from ._strategy import _strategy_step
 

@@ -17,9 +17,9 @@ Per sample (Ljung & Söderström 1983, eqs. 2.19–2.20, on U-D factors):
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply_pairs, _bierman_prep, _copy_factor, \
     _one_sample, _segment_start, _views
 from ._dims import dim

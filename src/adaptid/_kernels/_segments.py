@@ -1,9 +1,9 @@
 """Statistics of segmented runs (streams stored back to back)."""
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .._config import NJIT_PARALLEL
+from .._config import NJIT_PARALLEL, njit
 
 
 @njit(**NJIT_PARALLEL)

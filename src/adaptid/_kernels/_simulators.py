@@ -13,9 +13,8 @@ State ``x = [i, ω, T, angle]``; parameter vector ``p`` in the order of
 """
 
 import numpy as np
-from numba import njit
 
-from .._config import NJIT
+from .._config import NJIT, njit
 
 __all__ = ["DC_MOTOR_PARAMETER_ORDER", "simulate_dc_motor"]
 

@@ -7,9 +7,9 @@ and ``Lk`` the λₖ applied at each sample (NaN where skipped).
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _add, _bierman_apply, _bierman_prep, _finite_row, \
     _forget, _form_P, _gain_step, _max_diag_P, _one_sample, _prior_errors, _segment_start, \
     _store, _trace_P, _udu_factor, _views

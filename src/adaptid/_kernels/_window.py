@@ -13,9 +13,9 @@ log-λ sums (M) | theta0 (n·p) | U0 (n·n) | D0 (n) ]``.
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _add, _bierman_apply, _d_below, \
     _gain_step, _one_sample, _prep_row, _prior_errors, _segment_start, _views
 from ._dims import dim

@@ -21,12 +21,36 @@ knows the container format and nothing of the classes.
 
 ``checksum`` is the SHA-256 of the header without the checksum (canonical
 JSON, sorted keys) followed by the raw bytes, dtype and shape of every array
-in name order. The file is written to a temporary name in the same folder,
-flushed and fsync'ed, then renamed over the target, so a reader sees the old
-file or the new one, never half of one. Reading checks the magic, the format
-version, the checksum, the estimator type and every shape; any mismatch raises
-:class:`~adaptid.StateFileError` (a ``ValueError``). Pickle is never used: a
-pickled object array inside the archive is refused by ``allow_pickle=False``.
+in name order.
+
+Writing
+-------
+The file is written to a temporary name ``.<name>.<pid>-<random>.tmp`` in the
+same folder, flushed and fsync'ed, then renamed over the target, so a reader
+sees the old file or the new one, never half of one. The new file keeps the
+permission bits of the file it replaces (a new file gets ``0666`` minus the
+umask, as ``open`` would give it). A ``path`` that is a symbolic link is
+followed: the link's final target is replaced and the link itself stays (the
+temporary file is made next to the target). After a successful save, the
+temporary files that killed earlier saves of the same target left behind are
+removed: only names of this pattern for this target, regular files owned by
+the current user, and only if older than ten minutes (:data:`ORPHAN_AGE`) or
+if the process that was writing them no longer runs on this machine (see
+:func:`remove_orphans`).
+
+Reading
+-------
+The file is untrusted input, read by :mod:`._stateread` in an order that
+bounds memory and time by what the header declares: only a regular file is
+opened (never a FIFO or a device), the zip directory and the header are read
+first, the header's sizes are checked against fixed limits and give every
+array's exact shape, each member's declared size and ``.npy`` preamble are
+checked before its data are inflated, then the checksum, then the content
+(θ finite, U unit upper triangular, D > 0 and finite, window buffers finite)
+and finally the options and the prior through the estimator's own
+constructor. Any failure raises :class:`~adaptid.StateFileError` (a
+``ValueError``). Pickle is never used (only float64 and uint8 ``.npy``
+members are read).
 """
 
 from __future__ import annotations
@@ -35,12 +59,17 @@ import hashlib
 import io
 import json
 import os
+import re
+import stat
 import tempfile
+import time
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .._exceptions import StateFileError
+from . import _stateread as _sr
 
 FORMAT = 2  # 2: U stored by columns in the state vector (1: by rows; not read)
 _MAGIC = "adaptid-state"
@@ -158,27 +187,104 @@ def _payload(st: dict):
     return header, arrays
 
 
+#: Temporary files of :func:`save_state`: ``.<name>.<pid>-<random>.tmp`` (the pid of
+#: the writer; files of adaptid before it had none: ``.<name>.<random>.tmp``).
+_TMP_RE = r"\.{name}\.(?:(\d+)-)?[a-z0-9_]{{8}}\.tmp"
+#: A temporary file older than this (seconds) is an orphan of a killed save.
+ORPHAN_AGE = 600.0
+
+
+def _target(path: Path) -> Path:
+    """The file a save replaces: a symlink's final target (the link itself stays)."""
+    if path.is_symlink():
+        return Path(os.path.realpath(path))
+    return path
+
+
+def _new_mode(target: Path) -> int:
+    """Permission bits for the new file: the old file's, else 0666 minus the umask."""
+    try:
+        return stat.S_IMODE(os.stat(target).st_mode)
+    except OSError:
+        pass
+    try:  # the umask, without changing it (os.umask would race with other threads)
+        with open("/proc/self/status") as fh:
+            umask = next(int(line.split()[1], 8) for line in fh if line.startswith("Umask:"))
+    except (OSError, StopIteration, ValueError, IndexError):
+        umask = 0o077  # unknown: as private as mkstemp's file
+    return 0o666 & ~umask
+
+
+def _pid_running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # PermissionError: it exists (another user's)
+        return True
+    return True
+
+
+def remove_orphans(target: Path, now=None) -> list:
+    """Delete temporary files that killed earlier saves of ``target`` left behind.
+
+    A file is removed only if its name is one of ours for this target
+    (``.<name>.<pid>-<8 chars>.tmp``, or ``.<name>.<8 chars>.tmp`` of older
+    adaptid), it is a regular file owned by the current user, and it is older
+    than :data:`ORPHAN_AGE` or the process that was writing it (``pid``) no
+    longer runs on this machine. Returns the names removed.
+    """
+    folder = target.parent
+    pattern = re.compile(_TMP_RE.format(name=re.escape(target.name)))
+    now = time.time() if now is None else now
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        m = pattern.fullmatch(entry.name)
+        if m is None:
+            continue
+        try:
+            st = entry.stat(follow_symlinks=False)
+            if not stat.S_ISREG(st.st_mode) or st.st_uid != os.getuid():
+                continue
+            pid = int(m.group(1)) if m.group(1) else None
+            dead = pid is not None and pid != os.getpid() and not _pid_running(pid)
+            if dead or now - st.st_mtime > ORPHAN_AGE:
+                os.unlink(entry.path)
+                removed.append(entry.name)
+        except OSError:
+            continue
+    return removed
+
+
 def save_state(est, path) -> None:
     """Write ``est.get_state()`` to ``path`` atomically (see module docstring)."""
     header, arrays = _payload(est.get_state())
     header["checksum"] = _digest(header, arrays)
     buf = io.BytesIO()
     np.savez(buf, header=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8), **arrays)
-    path = Path(os.fspath(path))
-    folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    target = _target(Path(os.fspath(path)))
+    folder = target.parent if str(target.parent) else Path(".")
+    mode = _new_mode(target)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}-", suffix=".tmp",
+                               dir=folder)
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(buf.getvalue())
             fh.flush()
+            os.fchmod(fh.fileno(), mode)
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        os.replace(tmp, target)
     except BaseException:
         try:
             os.unlink(tmp)
         except OSError:
             pass
         raise
+    remove_orphans(folder / target.name)
 
 
 def load_state(path):
@@ -187,7 +293,7 @@ def load_state(path):
     Parameters
     ----------
     path : str or os.PathLike
-        The file.
+        The file: a regular file (or a symlink to one).
 
     Returns
     -------
@@ -198,86 +304,102 @@ def load_state(path):
     Raises
     ------
     StateFileError
-        (a ``ValueError``) on any damage or mismatch: unreadable, truncated,
-        not an adaptid state file, a newer format, a checksum mismatch, an
-        unknown estimator type or an inconsistent state. Nothing is unpickled.
+        (a ``ValueError``) on any damage or mismatch: not a regular file,
+        unreadable, truncated, not an adaptid state file, a newer format,
+        sizes beyond the limits of :mod:`adaptid.estimators._stateread`, a
+        checksum mismatch, an unknown estimator type, values no estimator
+        holds (NaN in θ, D ≤ 0, ...) or options out of range. Nothing is
+        unpickled, and memory stays bounded by what the header declares.
 
     See Also
     --------
     RLS.load_state : the same, refusing a file of another estimator type.
     """
     path = Path(os.fspath(path))
+    with _sr.open_regular(path) as fh:
+        try:
+            _sr.check_end_record(path, fh)
+            with zipfile.ZipFile(fh) as zf:
+                header, arrays, cls, own = _read_archive(path, zf)
+        except StateFileError:
+            raise
+        except Exception as err:  # noqa: BLE001 - a damaged zip raises anything
+            # (BadZipFile, NotImplementedError, RuntimeError "encrypted", zlib.error,
+            # EOFError, ...): all of it means a truncated or corrupted file
+            raise StateFileError(f"{path}: truncated or corrupted state file "
+                                 f"({type(err).__name__}: {str(err)[:120]})") from None
     try:
-        data = path.read_bytes()
-    except OSError as err:
-        raise StateFileError(f"path {str(path)!r} cannot be read: {err.strerror or err}") from None
-    try:
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            names = set(npz.files)
-            if "header" not in names:
-                raise StateFileError(f"{path}: not an adaptid state file (no header)")
-            raw = npz["header"]
-            arrays = {k: npz[k] for k in names - {"header"}}
+        return _build_from_file(header, arrays, cls, own)
     except StateFileError:
         raise
-    except ValueError as err:  # includes "Object arrays cannot be loaded when allow_pickle=False"
-        raise StateFileError(f"{path}: refused ({err})") from None
-    except Exception as err:  # noqa: BLE001 - a damaged zip raises anything (NotImplementedError,
-        # RuntimeError "encrypted", zlib.error, ...): all of it means a corrupted file
-        raise StateFileError(f"{path}: truncated or corrupted state file ({type(err).__name__}: {err})") from None
-    try:
-        if raw.dtype != np.uint8 or raw.ndim != 1:
-            raise ValueError("header is not a byte string")
-        header = json.loads(raw.tobytes().decode("utf-8"))
-        if not isinstance(header, dict):
-            raise ValueError("header is not an object")
-    except (ValueError, UnicodeDecodeError) as err:
-        raise StateFileError(f"{path}: corrupted header ({err})") from None
+    except Exception as err:  # noqa: BLE001 - the constructors validate the options
+        raise StateFileError(f"{path}: inconsistent state ({type(err).__name__}: "
+                             f"{str(err)[:200]})") from None
+
+
+def _check_kind(path, header):
+    """(class that reads the file, its own arrays {key: name}, core kind)."""
     if header.get("magic") != _MAGIC:
-        raise StateFileError(f"{path}: not an adaptid state file")
+        _sr.refuse(path, "not an adaptid state file")
     fmt = header.get("format")
-    if not isinstance(fmt, int) or fmt > FORMAT:
-        raise StateFileError(f"{path}: state format {fmt!r} is newer than this adaptid "
-                             f"supports ({FORMAT}); upgrade adaptid")
+    if type(fmt) is not int or fmt > FORMAT:
+        _sr.refuse(path, f"state format {fmt!r:.40} is newer than this adaptid supports "
+                   f"({FORMAT}); upgrade adaptid")
     if fmt != FORMAT:
-        raise StateFileError(f"{path}: unknown state format {fmt!r}")
-    checksum = header.pop("checksum", None)
+        _sr.refuse(path, f"unknown state format {fmt!r}")
     kind = header.get("estimator")
     cls = _lookup(kind) if isinstance(kind, str) else None
-    own = getattr(cls, "_STATE_FILE_ARRAYS", {}) if "inner_estimator" in header else {}
-    allowed = set(_ARRAYS) | set(own.values())
-    if set(arrays) - allowed:
-        raise StateFileError(f"{path}: unexpected arrays {sorted(set(arrays) - allowed)}")
-    if any(a.dtype != np.float64 for a in arrays.values()):
-        raise StateFileError(f"{path}: arrays must be float64")
-    if checksum != _digest(header, arrays):
-        raise StateFileError(f"{path}: checksum mismatch (the file was altered or damaged)")
-    wrapped = bool(own)
+    wrapped = "inner_estimator" in header
+    own = getattr(cls, "_STATE_FILE_ARRAYS", None) if wrapped else {}
     core = header.get("inner_estimator") if wrapped else kind
-    if cls is None or core not in _classes() or ("inner_estimator" in header) != wrapped:
-        raise StateFileError(f"{path}: unknown estimator type {kind!r}")
-    try:
-        opts = header["options"]
-        if not isinstance(opts, dict):
-            raise TypeError(f"options must be an object, got {type(opts).__name__}")
-        opts = dict(opts)
-        if "process_cov" in arrays:
-            opts["process_cov"] = arrays["process_cov"]
-        state = {
-            "estimator": core, "format": fmt, "n_params": header["n_params"],
-            "n_outputs": header["n_outputs"], "single_output": header["single_output"],
-            "options": opts, "theta0": arrays.get("theta0"), "P0": arrays.get("P0"),
-            "state": arrays.get("state"), "batch": header["batch"],
-            "n_updates": header["n_updates"], "n_skipped": header["n_skipped"],
-        }
-        if not wrapped:
-            return estimator_from_state(state)
-        outer = header["outer"]
-        if not isinstance(outer, dict) or not isinstance(outer.get("options"), dict):
-            raise TypeError("outer must be an object with options")
-        return cls.from_state({
-            "estimator": kind, "format": outer["format"], "n_params": outer["n_params"],
-            "options": dict(outer["options"]), "inner": state,
-            **{key: arrays[name] for key, name in own.items()}})
-    except (ValueError, TypeError, KeyError, IndexError, AttributeError) as err:
-        raise StateFileError(f"{path}: inconsistent state ({err})") from None
+    if cls is None or own is None or core not in _sr.CORE_KINDS or (wrapped and not own):
+        _sr.refuse(path, f"unknown estimator type {kind!r:.60}")
+    return cls, own, core
+
+
+def _read_archive(path, zf):
+    """(header without checksum, arrays, class, own arrays), every size checked first."""
+    members = _sr.directory(path, zf)
+    header = _sr.parse_header(path, zf, members.pop("header"))
+    cls, own, core = _check_kind(path, header)
+    shapes = _sr.core_layout(path, header, core)
+    bounds = {name: ((lambda s, want=want: s == want), 8 * int(np.prod(want)))
+              for name, want in shapes.items()}
+    if own:
+        bounds.update(_sr.outer_layout(path, header, header["n_params"], own.values()))
+    unexpected = sorted(set(members) - set(bounds))
+    missing = sorted(set(bounds) - set(members))
+    if unexpected or missing:
+        _sr.refuse(path, f"unexpected arrays {unexpected[:8]}" if unexpected
+                   else f"missing arrays {missing}")
+    arrays = {name: _sr.read_member(path, zf, info, *bounds[name], np.dtype(np.float64))
+              for name, info in members.items()}
+    checksum = header.pop("checksum", None)
+    if checksum != _digest(header, arrays):
+        _sr.refuse(path, "checksum mismatch (the file was altered or damaged)")
+    _sr.check_content(path, core, header, arrays)
+    header["_core"] = core
+    return header, arrays, cls, own
+
+
+def _build_from_file(header, arrays, cls, own):
+    core = header.pop("_core")
+    opts = dict(header["options"])
+    if "process_cov" in arrays:
+        opts["process_cov"] = arrays["process_cov"]
+    state = {
+        "estimator": core, "format": header["format"], "n_params": header["n_params"],
+        "n_outputs": header["n_outputs"], "single_output": header["single_output"],
+        "options": opts, "theta0": arrays["theta0"], "P0": arrays["P0"],
+        "state": arrays["state"], "batch": header["batch"],
+        "n_updates": header["n_updates"], "n_skipped": header["n_skipped"],
+    }
+    if not own:
+        return estimator_from_state(state)
+    outer = header["outer"]
+    if not isinstance(outer.get("options"), dict):
+        raise TypeError("outer must be an object with options")
+    return cls.from_state({
+        "estimator": header["estimator"], "format": outer.get("format"),
+        "n_params": outer["n_params"], "options": dict(outer["options"]), "inner": state,
+        **{key: arrays[name] for key, name in own.items()}})
