@@ -182,7 +182,8 @@ def test_compiled_code_lives_only_under_kernels():
     """Issue 13, point 5: every numba-compiled function is in src/adaptid/_kernels/."""
     bad = []
     for module, path in MODULES.items():
-        if _component(module) == "_kernels":
+        # _config defines the one decorator the kernels use (adaptid._config.njit)
+        if _component(module) in ("_kernels", "_config"):
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             # a compiling decorator imported (from numba import njit) or used (@numba.njit)
@@ -199,3 +200,19 @@ def test_no_kernel_file_over_400_lines():
     long = {p.name: n for p in (SRC / "_kernels").glob("*.py")
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > 400}
     assert not long, long
+
+
+def test_kernels_take_njit_from_config():
+    """Every compiled kernel goes through adaptid._config.njit (the cache decision
+    of issue 14: no cache in a folder others can write, damaged caches recompile)."""
+    bad = []
+    for path in sorted((SRC / "_kernels").glob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "") == "numba" and \
+                    any(a.name in ("njit", "jit") for a in node.names):
+                bad.append(path.name)
+            if isinstance(node, ast.keyword) and node.arg == "cache" and \
+                    isinstance(node.value, ast.Constant):
+                bad.append(f"{path.name}: literal cache=")
+    assert not bad, bad

@@ -27,9 +27,9 @@ sum of squares of the least-squares fit on the rows rotated so far. Cost
 import math
 
 import numpy as np
-from numba import njit
 
-from .._config import NJIT, NJIT_INLINE
+
+from .._config import NJIT, NJIT_INLINE, njit
 
 
 @njit(**NJIT_INLINE)

@@ -7,9 +7,9 @@ g is rows ``offsets[g]:offsets[g+1]`` of the stacked arrays.
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .._config import NJIT_PARALLEL
+from .._config import NJIT, NJIT_PARALLEL, njit
 from ._residuals import recursive_residuals_kernel
 
 
@@ -131,7 +131,7 @@ def recursive_residuals_segments(Phi, y, offsets, w):  # pragma: no cover
         recursive_residuals_kernel(Phi[a:b], y[a:b], tol, R, w[a + n:b])
 
 
-@njit(cache=True, nogil=True)
+@njit(**NJIT)
 def scan_runs(g, t, use_t, starts):  # pragma: no cover - compiled
     """Runs of equal group labels in ``g``, and whether the rows are already sorted.
 

@@ -32,9 +32,9 @@ non-finite value is skipped (θ untouched, error NaN, ``skipped`` set).
 """
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _finite_row, _one_sample, _segment_start
 from ._dims import dim
 from ._scratch import scratch, small_scratch

@@ -23,9 +23,9 @@ equations.
 import math
 
 import numpy as np
-from numba import njit
 
-from .._config import NJIT
+
+from .._config import NJIT, njit
 
 
 @njit(**NJIT)
