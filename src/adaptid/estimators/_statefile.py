@@ -390,7 +390,7 @@ def _build_from_file(header, arrays, cls, own):
     state = {
         "estimator": core, "format": header["format"], "n_params": header["n_params"],
         "n_outputs": header["n_outputs"], "single_output": header["single_output"],
-        "options": opts, "theta0": arrays["theta0"], "P0": arrays["P0"],
+        "options": opts, "theta0": arrays["theta0"], "P0": arrays.get("P0"),
         "state": arrays["state"], "batch": header["batch"],
         "n_updates": header["n_updates"], "n_skipped": header["n_skipped"],
     }

@@ -53,7 +53,9 @@ MAX_HEADER_BYTES = 2 ** 20
 MAX_MEMBERS = 16
 #: Room for a ``.npy`` preamble (magic, version, dict) in front of the data.
 _NPY_PREAMBLE_MAX = 4096
-CORE_KINDS = ("RLS", "SlidingWindowRLS", "KalmanRLS")
+CORE_KINDS = ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS")
+#: gradient estimators: the state is θ alone, no P0 (no covariance)
+GRADIENT_KINDS = ("LMS", "NLMS")
 
 
 def refuse(path, what):
@@ -201,6 +203,8 @@ def core_layout(path, header, kind):
     opts = header.get("options")
     if not isinstance(opts, dict):
         refuse(path, f"header field 'options' must be an object, got {type(opts).__name__}")
+    if kind in GRADIENT_KINDS:
+        return {"theta0": (n, p), "state": (n * p,) if batch is None else (batch, n * p)}
     L = n * p + n * n + n
     if kind == "SlidingWindowRLS":
         M = _int(path, opts, "window", n, MAX_WINDOW)
@@ -250,7 +254,10 @@ def check_content(path, kind, header, arrays):
         if name in arrays and not np.all(np.isfinite(arrays[name])):
             refuse(path, f"array {name!r} holds NaN or inf")
     S = arrays["state"].reshape(-1, arrays["state"].shape[-1])
-    ok = _factor_ok(S, 0, n, p)
+    if kind in GRADIENT_KINDS:
+        ok = np.all(np.isfinite(S), axis=1)
+    else:
+        ok = _factor_ok(S, 0, n, p)
     if kind == "SlidingWindowRLS":
         core = n * p + n * n + n
         ok &= np.all(np.isfinite(S[:, core:-core]), axis=1)     # L, indices, buffers
