@@ -548,6 +548,27 @@ def test_gradient_generic_kernel_n18_bitwise(tmp_path, kind):
         np.testing.assert_array_equal(th, tr.theta)
 
 
+@pytest.mark.parametrize("n", [8, 13, 16])
+def test_gradient_nlms_sumsq_and_zero_regressor(tmp_path, n):
+    """NLMS with ε₀ = 0 and rows φ = 0 (q = 0: no step, as the kernel), at the n
+    where the specialised kernel's fused φᵀφ (sumsq, see codegen/_lms.py) has
+    no remainder (8, 16) and a remainder of one (13): bit for bit with FMA."""
+    rng = np.random.default_rng(n)
+    Phi = rng.standard_normal((5_000, n))
+    Phi[100:110] = 0.0
+    y = Phi @ rng.standard_normal(n) + 0.1 * rng.standard_normal(5_000)
+    est = adaptid.NLMS(n, step=0.5, eps=0.0)
+    tr = est.copy().run(Phi, y)
+    assert np.array_equal(tr.theta[100], tr.theta[109])  # the zero rows: no step
+    fma = _host_has_fma()
+    exe = _build(est, tmp_path, flags=(["-DEST_USE_FMA", "-mfma"] if fma else ["-ffp-contract=off"]))
+    th = _run(exe, Phi, y)[0]
+    assert np.all(np.isfinite(th))
+    assert _rel(th, tr.theta) <= 1e-12
+    if fma:
+        np.testing.assert_array_equal(th, tr.theta)
+
+
 @pytest.mark.parametrize("kind", ["LMS", "NLMS"])
 def test_gradient_divergence_flag(tmp_path, kind):
     """A step far too large: Python warns (DivergenceWarning) and the C code sets
