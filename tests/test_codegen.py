@@ -541,8 +541,8 @@ def test_gradient_generic_kernel_n18_bitwise(tmp_path, kind):
     est = adaptid.LMS(18, step=0.01) if kind == "LMS" else adaptid.NLMS(18, step=0.5)
     tr = est.copy().run(Phi, y)
     fma = _host_has_fma()
-    exe = _build(est, tmp_path, flags=(["-DEST_USE_FMA", "-mfma"] if fma else ["-ffp-contract=off"]))
-    th = _run(exe, Phi, y)[0]
+    flags = ["-DEST_USE_FMA", "-mfma"] if fma else ["-ffp-contract=off"]
+    th = _run(_build(est, tmp_path, flags=flags), Phi, y)[0]
     assert _rel(th, tr.theta) <= 1e-12
     if fma:
         np.testing.assert_array_equal(th, tr.theta)
@@ -561,8 +561,8 @@ def test_gradient_nlms_sumsq_and_zero_regressor(tmp_path, n):
     tr = est.copy().run(Phi, y)
     assert np.array_equal(tr.theta[100], tr.theta[109])  # the zero rows: no step
     fma = _host_has_fma()
-    exe = _build(est, tmp_path, flags=(["-DEST_USE_FMA", "-mfma"] if fma else ["-ffp-contract=off"]))
-    th = _run(exe, Phi, y)[0]
+    flags = ["-DEST_USE_FMA", "-mfma"] if fma else ["-ffp-contract=off"]
+    th = _run(_build(est, tmp_path, flags=flags), Phi, y)[0]
     assert np.all(np.isfinite(th))
     assert _rel(th, tr.theta) <= 1e-12
     if fma:
@@ -658,3 +658,23 @@ def test_gradient_header_and_refusals(tmp_path):
     assert "0.1, 0.2" in want  # θ after the two samples: μ φ y = (0.1, 0.2)
     est.to_c(tmp_path / "m", name="lm")
     assert (tmp_path / "m" / "lm.c").read_text() == want
+
+
+def test_cli_fit_nlms_export_c(tmp_path, capsys):
+    """adaptid fit --method nlms --export-c: the C code of the fitted NLMS, which
+    continues from the fit's final θ (y = 1·a + 2·b exactly: θ = (1, 2))."""
+    from adaptid.cli import main
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((500, 2))
+    np.savetxt(tmp_path / "d.csv", np.column_stack([X, X @ [1.0, 2.0]]), delimiter=",",
+               header="a,b,y", comments="")
+    assert main(["fit", str(tmp_path / "d.csv"), "--y", "y", "--phi", "a,b", "--method", "nlms",
+                 "--step", "0.5", "--export-c", str(tmp_path / "c"), "--c-name", "fitn",
+                 "-q"]) == 0
+    capsys.readouterr()
+    head = (tmp_path / "c" / "fitn.h").read_text()
+    src = (tmp_path / "c" / "fitn.c").read_text()
+    assert "normalised least mean squares" in head and "FITN_FLAG_DIVERGED" in head
+    assert "#define STEP 0.5" in src
+    init = src.split("THETA_INIT[FITN_N] = {", 1)[1].split("}", 1)[0]
+    np.testing.assert_allclose([float(v) for v in init.split(",")], [1.0, 2.0], rtol=1e-9)
