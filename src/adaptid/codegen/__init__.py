@@ -2,7 +2,8 @@ r"""Layer 7: C code generation for the recursive estimators (``to_c``).
 
 An estimator identified in Python is exported as a dependency-free C99 file
 pair that continues from its current state: the same U-D (Bierman)
-recursion, operation for operation, for a microcontroller's control loop.
+recursion (or, for LMS / NLMS, the same gradient step), operation for
+operation, for a microcontroller's control loop.
 See ``docs/embedded.md``.
 """
 
@@ -21,6 +22,7 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
     are fixed at generation. The header declares
 
     * ``NAME_t`` — θ, the U-D factors of P, counters (and the window buffer);
+      for LMS / NLMS θ and the counters only (no covariance);
     * ``void NAME_init(NAME_t *s)`` — the estimator's state at export time;
     * ``double NAME_update(NAME_t *s, const double phi[N], double y)`` — one
       sample; returns the a-priori error :math:`\varepsilon = y - \varphi^T\theta`
@@ -41,6 +43,23 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
         \theta_k = \theta_{k-1} + K_k\varepsilon_k,\quad
         P_k = P_{k-1} - K_k\varphi_k^T P_{k-1}.
 
+    LMS and NLMS (MATLAB ``recursiveLS`` ``Gradient`` / ``NormalizedGradient``;
+    Widrow & Stearns 1985, eq. 6.3; Haykin 2002, eq. 6.44) follow
+    :mod:`adaptid._kernels._lms`: the same dot products (four partial sums
+    for n ≥ 8), the same test for non-finite samples, weight w = 1:
+
+    .. math::
+
+        \theta_k = \theta_{k-1} + \mu\,w\,\varphi_k\varepsilon_k
+        \quad\text{(LMS)},\qquad
+        \theta_k = \theta_{k-1}
+            + \frac{\mu\,w}{\epsilon_0 + \varphi_k^T\varphi_k}\,\varphi_k\varepsilon_k
+        \quad\text{(NLMS)};
+
+    a non-finite error on finite data or a non-finite θ (the step is too
+    large; Python's ``DivergenceWarning``) sets ``NAME_FLAG_DIVERGED`` in
+    ``flags``.
+
     Every product the kernel fuses (numba's ``fastmath={"contract"}``) is
     written ``FMA(a, b, c)``: compiled with ``-DNAME_USE_FMA`` on a CPU with a
     hardware FMA (x86-64 with ``-mfma``) and ``-ffp-contract=off`` (the default
@@ -50,7 +69,7 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
 
     Parameters
     ----------
-    est : RLS, SlidingWindowRLS or KalmanRLS
+    est : RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS
         Single stream and single output. RLS forgetting: a constant λ (with or
         without ``P_max``), ``Exponential``, ``Directional``, ``ConstantTrace``
         or ``Variable``. Samples have weight 1 and the constant λ.
@@ -77,8 +96,8 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
     """
     if not hasattr(est, "get_state"):
         from .._validation import param_error
-        raise param_error("est", "an adaptid RLS, SlidingWindowRLS or KalmanRLS", est,
-                          exc=TypeError)
+        raise param_error("est", "an adaptid RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS",
+                          est, exc=TypeError)
     return write(est.get_state(), directory, name=name, dtype=dtype)
 
 
