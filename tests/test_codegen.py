@@ -686,3 +686,22 @@ def test_cli_fit_nlms_export_c(tmp_path, capsys):
     assert "#define STEP 0.5" in src
     init = src.split("THETA_INIT[FITN_N] = {", 1)[1].split("}", 1)[0]
     np.testing.assert_allclose([float(v) for v in init.split(",")], [1.0, 2.0], rtol=1e-9)
+
+
+def test_export_c_reads_a_gradient_state_file(tmp_path):
+    """adaptid export-c on the state file of an NLMS (no P: the state is θ alone)."""
+    import subprocess
+    import sys
+
+    import adaptid
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((500, 3))
+    est = adaptid.NLMS(3, step=0.5)
+    est.run(X, X @ [1.0, 2.0, 3.0])
+    est.save_state(tmp_path / "s.npz")
+    r = subprocess.run([sys.executable, "-m", "adaptid", "export-c", str(tmp_path / "s.npz"),
+                        "--out", str(tmp_path / "c"), "--name", "nl"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "c" / "nl.c").read_text() == \
+        adaptid.codegen.generate_c(est.get_state(), name="nl")[1]

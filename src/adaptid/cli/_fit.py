@@ -39,11 +39,11 @@ def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume,
                        "(pseudo-linear regression on filtered signals) has more state than an "
                        "estimator's")
     if tracks is not None and spec.resolved == "batch" and resume is None:
-        raise CLIError("--tracks needs a recursive method (rls, window, kalman): --method batch "
+        raise CLIError("--tracks needs a recursive method (rls, window, kalman, lms, nlms): --method batch "
                        "has one estimate, no per-sample track")
     if export_c is not None:
         if spec.resolved == "batch" and resume is None:
-            raise CLIError("--export-c needs a recursive method (rls, window, kalman): --method "
+            raise CLIError("--export-c needs a recursive method (rls, window, kalman, lms, nlms): --method "
                            "batch has no estimator to continue in C")
         if kind in ("arma", "bj"):
             raise CLIError(f"--export-c is not available with --{kind}: its recursion filters the "
