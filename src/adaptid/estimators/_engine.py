@@ -60,6 +60,21 @@ def _labels(Phi, y):
     return out
 
 
+def _entry_point(dispatcher, args):
+    """The compiled function ``dispatcher`` chose for ``args``, to call without re-typing
+    its eleven arguments on every ``update`` (0.3 µs of the 1.5 µs of a call at n = 4).
+    Only used while the argument types cannot change (see ``update``); None if numba
+    offers no entry point (e.g. with ``NUMBA_DISABLE_JIT=1``)."""
+    overloads = getattr(dispatcher, "overloads", None)
+    if overloads is None:
+        return None
+    try:
+        import numba
+        return overloads[tuple(numba.typeof(a) for a in args)].entry_point
+    except (KeyError, AttributeError, ValueError):  # pragma: no cover - numba internals
+        return None
+
+
 def _is_default_index(index):
     """A RangeIndex 0..N-1 carries no time."""
     start, step = getattr(index, "start", None), getattr(index, "step", None)
@@ -143,6 +158,7 @@ class RecursiveEstimator:
         return np.broadcast_to(np.float64(1.0), shape_N)
 
     def _sync_options(self):
+        self._update_ep = None
         self._opt, self._mat = self._kernel_options()
         self._kern = self._entries()
         self._reports = self._reports_forgetting
@@ -459,8 +475,14 @@ class RecursiveEstimator:
         yv = self._y(y)
         w = self._weight(weight)
         lam = self._lam_step(forgetting)
-        st = self._kern.update(self._S, phi, yv, self._e, lam, w, self._lk, self._opt,
-                               self._mat, self._ntag, self._ptag)
+        args = (self._S, phi, yv, self._e, lam, w, self._lk, self._opt, self._mat,
+                self._ntag, self._ptag)
+        if self._update_ep is not None and phi.flags.writeable and yv is self._ybuf:
+            st = self._update_ep(*args)
+        else:
+            st = self._kern.update(*args)
+            if self._single and phi.flags.writeable and yv is self._ybuf:
+                self._update_ep = _entry_point(self._kern.update, args)
         if st & 1:
             self._nonfinite_step(phi, yv)
             if st & 4:
