@@ -24,15 +24,8 @@ MAX_LINES = 80
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src" / "adaptid"
 
-#: Files whose long functions other engineers are still splitting (issue 13).
-#: Each entry names the function(s) over the limit when it was added. Remove an
-#: entry when its refactor lands: ``test_allow_list_is_not_stale`` fails
-#: while an entry no longer has a long function, so the list only shrinks.
-ALLOWED = {
-    # cli: the demo's report writer, _report (81 lines); the CLI is being
-    # reorganised (fleet command into cli/, adaptid.plot figures).
-    "src/adaptid/cli/_demo.py",
-}
+#: Files exempt from the limit: none (issue 13 split the last long functions).
+ALLOWED: set = set()
 
 _NOT_CODE = {tokenize.COMMENT, tokenize.NL, tokenize.NEWLINE, tokenize.INDENT,
              tokenize.DEDENT, tokenize.ENCODING, tokenize.ENDMARKER}
@@ -153,13 +146,7 @@ def test_no_function_over_the_limit():
         f"steps; blank, comment and docstring lines do not count):\n{report}")
 
 
-def test_allow_list_is_not_stale():
-    long = _long_functions()
-    stale = sorted(path for path in ALLOWED if path not in long)
-    assert not stale, ("these files have no function over the limit any more; remove them "
-                       f"from ALLOWED in tests/test_function_length.py: {stale}")
-
-
-@pytest.mark.parametrize("path", sorted(ALLOWED))
-def test_allow_list_names_existing_files(path):
-    assert (ROOT / path).is_file(), f"{path} is in ALLOWED but does not exist"
+def test_allow_list_is_empty():
+    """Issue 13, point 9: every long function has been split; the list stays empty
+    (a function over the limit is split, not allowed)."""
+    assert ALLOWED == set()

@@ -200,14 +200,8 @@ def _print(output: Output, result):
     c.print(f"done in {result['elapsed_s']:.1f} s", markup=False, soft_wrap=True)
 
 
-def _report(out_dir, regs, fits, tracks, summary, truth, t, idx, t_load, seed, N, dt):
-    from adaptid.diagnostics import cusum, recursive_residuals
-
-    from ._report import Report, cusum_figure, errors_figure, tracks_figure
-
-    rep = Report(out_dir, "adaptid demo: DC motor identification",
-                 f"simulated permanent-magnet DC motor (adaptid.datasets.dc_motor, seed {seed}) · "
-                 f"{N} samples at {1 / dt:g} Hz · load coupled at {t_load:g} s")
+def _summary_section(rep, fits, summary):
+    """The report's first section: final estimates against the truth, delays, RMS errors."""
     rep.section("Summary")
     rep.note("Final estimates at the last sample, with the relative error to the simulator's "
              "truth at that sample (R drifts as the winding heats; J and B step at the load).")
@@ -236,6 +230,17 @@ def _report(out_dir, regs, fits, tracks, summary, truth, t, idx, t_load, seed, N
              f"{COMMISSION_S:g} s; P₀ = {P0:g}·I.")
     rep.warnings([f"{m} {f.title}: {w}" for m in DEMO_METHODS for f in fits[m].values()
                   for w in f.warnings])
+
+
+def _report(out_dir, regs, fits, tracks, summary, truth, t, idx, t_load, seed, N, dt):
+    from adaptid.diagnostics import cusum, recursive_residuals
+
+    from ._report import Report, cusum_figure, errors_figure, tracks_figure
+
+    rep = Report(out_dir, "adaptid demo: DC motor identification",
+                 f"simulated permanent-magnet DC motor (adaptid.datasets.dc_motor, seed {seed}) · "
+                 f"{N} samples at {1 / dt:g} Hz · load coupled at {t_load:g} s")
+    _summary_section(rep, fits, summary)
     rep.end()
 
     tt = t[idx]
