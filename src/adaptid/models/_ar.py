@@ -13,6 +13,7 @@ from scipy import signal
 from .._validation import as_float_array, check_choice, check_int
 from ._armax import ARMAX
 from ._arx import ARX
+from ._polymodel import _python_control
 
 __all__ = ["AR", "ARMA"]
 
@@ -107,10 +108,7 @@ class _TimeSeries:
         """
         check_choice(form, "form", ("tf", "ss"))
         self._check_fitted()
-        try:
-            import control
-        except ImportError as err:  # pragma: no cover - depends on the extra
-            raise ImportError("to_control needs python-control: pip install 'adaptid[control]'") from err
+        control = _python_control()
         A, _, C, _ = self._polys()
         L = max(A.size, C.size)
         num, den = np.zeros(L), np.zeros(L)

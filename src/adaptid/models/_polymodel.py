@@ -26,6 +26,15 @@ from ._builders import _as_inputs, _per_input, arx_regressors
 __all__ = ["_PolyModel"]
 
 
+
+def _python_control():
+    """python-control, or an ImportError naming the extra that installs it."""
+    try:
+        import control
+    except ImportError as err:  # pragma: no cover - depends on the extra
+        raise ImportError("to_control needs python-control: pip install 'adaptid[control]'") from err
+    return control
+
 class NotFittedError(RuntimeError):
     """Raised when a model is used before ``fit``."""
 
@@ -371,10 +380,7 @@ class _PolyModel:
         """
         check_choice(form, "form", ("tf", "ss"))
         self._check_fitted()
-        try:
-            import control
-        except ImportError as err:  # pragma: no cover - depends on the extra
-            raise ImportError("to_control needs python-control: pip install 'adaptid[control]'") from err
+        control = _python_control()
         A, Bs, C, Fs = self._polys()
         nums, dens = [], []
         for i in range(self._m):
