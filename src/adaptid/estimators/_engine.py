@@ -83,6 +83,36 @@ def _is_default_index(index):
 _NAN_POLICIES = ("raise", "skip")
 
 
+class _StepArrays:
+    """One-sample arrays of exactly the numba types :meth:`RecursiveEstimator.run`
+    passes its kernel (read-only C arrays for Φ and y, read-only strided views for
+    λ and w, as ``np.broadcast_to`` gives), so that ``update`` reuses that compiled
+    ``run``. The writeable bases ``phi``, ``y``, ``lw`` are filled per step."""
+
+    def __init__(self, n, p, reports):
+        self.phi = np.zeros((1, n))
+        self.y = np.zeros((1, p))
+        self.lw = np.ones(2)
+        self.lam_now = self.w_now = 1.0  # the values in lw
+        self.nshape = (n,)
+        self.Phi, self.Y = (_read_only(a) for a in (self.phi, self.y))
+        strided = np.lib.stride_tricks.as_strided
+        self.lam = strided(self.lw[:1], (2,), (0,), writeable=False)
+        self.w = strided(self.lw[1:], (2,), (0,), writeable=False)
+        self.Th = np.empty((0, n, p))
+        self.E = np.empty((1, p))
+        self.skipped = np.zeros(1, dtype=np.bool_)
+        self.Lk = np.empty(1 if reports else 0)
+        self.reports = reports
+        self.args = (None,) * 13  # the kernel's arguments, rebuilt when S or the options change
+
+
+def _read_only(a):
+    v = a.view()
+    v.flags.writeable = False
+    return v
+
+
 class RecursiveEstimator:
     """Common engine; see :class:`~adaptid.RLS` and the other algorithms."""
 
@@ -134,6 +164,7 @@ class RecursiveEstimator:
         self._e = np.empty(self.n_outputs)
         self._ybuf = np.empty(1)
         self._lk = np.empty(1)
+        self._step = _StepArrays(n, self.n_outputs, self._reports_forgetting)
         self._ntag, self._ptag = _kernels.tags(n, self.n_outputs)
         self._sync_options()
         self.reset()
@@ -159,6 +190,7 @@ class RecursiveEstimator:
 
     def _sync_options(self):
         self._update_ep = None
+        self._lam_fixed = self._lam_step(None)
         self._opt, self._mat = self._kernel_options()
         self._kern = self._entries()
         self._reports = self._reports_forgetting
@@ -471,10 +503,54 @@ class RecursiveEstimator:
         """
         if self._batch is not None:
             self._check_single("update")
+        w = 1.0 if type(weight) is float and weight == 1.0 else self._weight(weight)
+        lam = self._lam_fixed if forgetting is None else self._lam_step(forgetting)
+        if self._code_is_rebuilds:
+            return self._update_window(phi, y, lam, w)
+        a = self._step
+        if type(phi) is np.ndarray and phi.shape == a.nshape and phi.dtype.char == "d":
+            a.phi[0] = phi
+        else:
+            a.phi[0] = self._phi(phi)
+        if self._single and (type(y) is float or type(y) is np.float64):
+            a.y[0, 0] = y
+        else:
+            a.y[0] = self._y(y)
+        if lam != a.lam_now:
+            a.lw[0] = a.lam_now = lam
+        if w != a.w_now:
+            a.lw[1] = a.w_now = w
+        args = a.args
+        if args[0] is not self._S or args[9] is not self._opt or args[10] is not self._mat:
+            args = a.args = (self._S, a.Phi, a.Y, a.lam, a.w, a.Th, a.E, a.skipped, a.Lk,
+                             self._opt, self._mat, self._ntag, self._ptag)
+        # One step is a run of length 1 through the compiled ``run`` numba already has for
+        # these argument types (those run() passes): nothing more to compile, and bit for
+        # bit the arithmetic of run().
+        if self._update_ep is not None:
+            code = self._update_ep(*args)
+        else:
+            code = self._kern.run(*args)
+            self._update_ep = _entry_point(self._kern.run, args)
+        if a.reports:
+            self._lk[0] = a.Lk[0]
+        e = a.E[0, 0]
+        if e != e and a.skipped[0]:  # a skipped sample (its error is NaN)
+            a.skipped[0] = False
+            self._nonfinite_step(a.phi[0], a.y[0])
+            if code >= 0:
+                self._warn_nonpositive(self.n_updates)
+            return float("nan") if self._single else a.E[0].copy()
+        self.n_updates += 1
+        if code >= 0:
+            self._warn_nonpositive(self.n_updates)
+        return float(e) if self._single else a.E[0].copy()
+
+    def _update_window(self, phi, y, lam, w):
+        """update through the algorithm's own single-step kernel (the window's, whose
+        run reports re-solves rather than the first bad sample)."""
         phi = self._phi(phi)
         yv = self._y(y)
-        w = self._weight(weight)
-        lam = self._lam_step(forgetting)
         args = (self._S, phi, yv, self._e, lam, w, self._lk, self._opt, self._mat,
                 self._ntag, self._ptag)
         if self._update_ep is not None and phi.flags.writeable and yv is self._ybuf:
