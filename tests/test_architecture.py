@@ -15,7 +15,7 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "adaptid"
 
-SHARED = {"_validation", "_exceptions", "_config", "_teststats", "_summary"}
+SHARED = {"_validation", "_exceptions", "_config", "_teststats", "_summary", "_lazy"}
 LAYERS = {  # first path component below adaptid -> layer (docs/architecture.md)
     "_kernels": 1,
     "estimators": 2, "forgetting": 2,

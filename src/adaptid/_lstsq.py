@@ -7,10 +7,13 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import linalg
 
 from ._exceptions import PrecisionWarning
+from ._lazy import lazy
 from ._validation import as_float_array, check_scalar, param_error
+
+stats = lazy("scipy.stats")
 
 __all__ = ["lstsq", "LSResult"]
 

@@ -18,7 +18,10 @@ so there is one formula for each number:
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+
+from ._lazy import lazy
+
+stats = lazy("scipy.stats")
 
 __all__ = [
     "gaussian_llf",

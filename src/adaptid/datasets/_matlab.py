@@ -19,9 +19,11 @@ SciPy's defaults. These helpers reproduce MATLAB's conventions with SciPy:
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
+from .._lazy import lazy
 from .._validation import as_float_array, check_int, check_scalar, param_error
+
+signal = lazy("scipy.signal")
 
 __all__ = ["matlab_filtfilt", "matlab_decimate", "central_difference"]
 

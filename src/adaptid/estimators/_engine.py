@@ -107,6 +107,18 @@ class _StepArrays:
         self.args = (None,) * 13  # the kernel's arguments, rebuilt when S or the options change
 
 
+def _strided(arr):
+    """``arr`` (read-only, float64, shape (..., N)) with a non-contiguous layout for
+    N >= 2: a contiguous one is copied into every other element of a new buffer."""
+    if arr.shape[-1] < 2 or not (arr.flags.c_contiguous or arr.flags.f_contiguous):
+        return arr
+    buf = np.empty(arr.shape + (2,))
+    out = buf[..., 0]
+    out[...] = arr
+    out.flags.writeable = False
+    return out
+
+
 def _read_only(a):
     v = a.view()
     v.flags.writeable = False
@@ -353,7 +365,13 @@ class RecursiveEstimator:
 
     @staticmethod
     def _per_sample(value, name, shape_N, *, low=None, high=None, low_open=False, default=1.0):
-        """A scalar or per-sample array, broadcast (without copying) to shape_N."""
+        """A scalar or per-sample array as a read-only array of shape shape_N.
+
+        A scalar is broadcast (no copy). A per-sample array is given the same
+        numba type as a broadcast scalar (strided layout 'A', read-only), copied
+        if it is contiguous, so that a kernel compiles one signature whether λ or
+        the weights are given per sample or not (each signature is seconds of
+        compile time)."""
         if value is None:
             value = default
         if np.ndim(value) == 0:
@@ -370,7 +388,7 @@ class RecursiveEstimator:
             lo = "(" if low_open else "["
             raise param_error(name, f"in {lo}{low}, {high if high is not None else 'inf'}]",
                               "<values outside that range>")
-        return arr
+        return _strided(arr)
 
     def _raise_if_skipped(self, skipped, Phi, Y, backup):
         """nan_policy='raise' without a pre-pass over the data: the kernel skipped

@@ -8,12 +8,14 @@ regressor uses.
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
+from .._lazy import lazy
 from .._validation import as_float_array, check_choice, check_int
 from ._armax import ARMAX
 from ._arx import ARX
 from ._polymodel import _python_control
+
+signal = lazy("scipy.signal")
 
 __all__ = ["AR", "ARMA"]
 

@@ -3,12 +3,14 @@ r"""The Box–Jenkins model :math:`y_k = \frac{B(q)}{F(q)}u_k + \frac{C(q)}{D(q)
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
+from .._lazy import lazy
 from .._validation import as_float_array, check_int
 from ._builders import _per_input
 from ._pem import _PseudoLinearModel, lagmat, stabilize
 from ._polymodel import _poly_sub, check_orders
+
+signal = lazy("scipy.signal")
 
 __all__ = ["BJ"]
 

@@ -3,12 +3,14 @@ r"""The output-error model :math:`y_k = \frac{B(q)}{F(q)}u_k + e_k`."""
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
+from .._lazy import lazy
 from .._validation import check_int
 from ._builders import _per_input
 from ._pem import _PseudoLinearModel, lagmat
 from ._polymodel import check_orders
+
+signal = lazy("scipy.signal")
 
 __all__ = ["OE"]
 

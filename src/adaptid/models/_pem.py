@@ -4,10 +4,13 @@ their gradient, the recursive fit and the prediction-error refinement."""
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize, signal
 
+from .._lazy import lazy
 from ._polymodel import _PolyModel
 from ._recursive import run_signals, signal_spec
+
+signal = lazy("scipy.signal")
+optimize = lazy("scipy.optimize")
 
 __all__ = ["_PseudoLinearModel", "lagmat", "stabilize"]
 

@@ -17,11 +17,13 @@ zero before the first sample).
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
+from .._lazy import lazy
 from ..estimators import Trajectory
 from .._validation import as_float_array, check_choice, check_int, check_scalar, param_error
 from ._builders import _as_inputs, _per_input, arx_regressors
+
+signal = lazy("scipy.signal")
 
 __all__ = ["_PolyModel"]
 
