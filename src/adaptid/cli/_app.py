@@ -5,6 +5,7 @@ Errors in the user's input end the command with one line
 printed before it only with ``--debug``); typer's own usage errors exit 2 too.
 """
 
+import os
 import sys
 import traceback
 from contextlib import contextmanager
@@ -156,6 +157,29 @@ def _guard(out: Output):
               out, 1)
 
 
+@contextmanager
+def _size_generic_kernels():
+    """Estimators built inside use the size-generic compiled kernels (n a run-time value).
+
+    A shell command is one short process whose time is mostly compilation: the
+    generic kernel of an algorithm is compiled (or loaded) once for every model
+    size, where the kernels specialised per n (the Python default, faster per
+    sample) compile once per size. Results are bit for bit the same. Setting
+    ``ADAPTID_MAX_SPECIALISED_N`` in the environment keeps its choice.
+    """
+    from .. import _config
+
+    if "ADAPTID_MAX_SPECIALISED_N" in os.environ:
+        yield
+        return
+    saved = _config.MAX_SPECIALISED_N
+    _config.MAX_SPECIALISED_N = 0
+    try:
+        yield
+    finally:
+        _config.MAX_SPECIALISED_N = saved
+
+
 # --------------------------------------------------------------------- demo
 @app.command()
 def demo(
@@ -171,7 +195,7 @@ def demo(
     """Identify a simulated DC motor (R, L, Ke, J, B, Kt, friction) with RLS, the sliding
     window and the Kalman filter side by side; print a summary and write a report."""
     out = _output(ctx, quiet, verbose, debug, json)
-    with _guard(out):
+    with _guard(out), _size_generic_kernels():
         from ._demo import run_demo
 
         result = run_demo(out_dir=None if no_report else out_dir, seed=seed, output=out)
@@ -285,7 +309,7 @@ def fit(
     c_k each sample's factor in the estimator's cost (adaptid.recursive_fit_stats).
     """
     out = _output(ctx, quiet, verbose, debug, json)
-    with _guard(out):
+    with _guard(out), _size_generic_kernels():
         from ._engine import MethodSpec
         from ._fit import run_fit
         from ._problem import Structure, parse_orders, split_names
