@@ -1,6 +1,6 @@
 """Cold start: the first RLS(n).run and update in a fresh process, caches empty.
 
-    python benchmarks/bench_coldstart.py [--n 3 5 8] [--repeat 1] [--src PATH]
+    python benchmarks/bench_coldstart.py [--n 3 5 8 24] [--repeat 1] [--src PATH] [--no-demo]
 
 Each measurement is a new Python process whose numba cache folder
 (``NUMBA_CACHE_DIR``) is a new empty temporary folder (and, for the code
@@ -9,6 +9,10 @@ kernel is compiled from scratch: "cold" is the first process on that folder,
 "warm" a second process on the same folder (everything loaded from the disk
 cache). Printed: seconds for ``import adaptid`` + ``RLS(n)``, the first
 ``run`` on 1000 samples, and the first ``update`` after it.
+
+Then ``adaptid demo`` (report written to a temporary folder) in the same
+way: wall-clock seconds of the whole command with an empty cache folder
+("fresh install") and again on that folder.
 
 ``--src`` runs another checkout's ``src`` (e.g. the commit before a change)
 in the same way, for a same-run comparison.
@@ -49,9 +53,23 @@ def measure(n, src, cache):
     return json.loads(out.strip().splitlines()[-1])
 
 
+def measure_demo(src, cache):
+    import time
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, ADAPTID_KERNEL_DIR=cache)
+    if src:
+        env["PYTHONPATH"] = src + os.pathsep + env.get("PYTHONPATH", "")
+    with tempfile.TemporaryDirectory(prefix="adaptid-demo-") as out:
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", "import sys; from adaptid.cli import main; "
+                        "sys.exit(main(sys.argv[1:]))", "demo", "-q", "-o",
+                        os.path.join(out, "report")], env=env, check=True, capture_output=True)
+        return time.perf_counter() - t0
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, nargs="+", default=[3, 5, 8])
+    ap.add_argument("--n", type=int, nargs="+", default=[3, 5, 8, 24])
+    ap.add_argument("--no-demo", action="store_true", help="skip the adaptid demo timing")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--src", default=None, help="another checkout's src folder")
     ap.add_argument("--json", default=None)
@@ -70,6 +88,11 @@ def main():
         print(f"n={n:2d}  cold: import {c['import']:.2f} s, first run {c['run']:.2f} s, "
               f"first update {c['update']:.2f} s   warm: run {w['run']:.3f} s, "
               f"update {w['update']:.3f} s", flush=True)
+    if not args.no_demo:
+        with tempfile.TemporaryDirectory(prefix="adaptid-cold-") as cache:
+            cold, warm = measure_demo(args.src, cache), measure_demo(args.src, cache)
+        rows.append({"demo": {"cold": cold, "warm": warm}})
+        print(f"adaptid demo (report included): cold {cold:.1f} s, warm {warm:.1f} s", flush=True)
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(rows, fh, indent=1)
