@@ -13,6 +13,38 @@ import pytest  # noqa: E402
 SOAK = os.environ.get("ADAPTID_SOAK") == "1"
 
 
+# The cold suite is compile-bound: numba compiles each kernel once per model
+# size n for which it is specialised (n <= 16, the Python default). The
+# estimator-level files below run on those specialised kernels; the layers
+# above them (models, diagnostics, CLI, fleet, scikit-learn, ...) run on the
+# size-generic kernels, one compilation for every n. Both give bit for bit the
+# same results (tests/test_kernels_scratch.py checks it for every algorithm,
+# tests/test_fit_stats_agree.py between the shell and Python).
+# ADAPTID_MAX_SPECIALISED_N in the environment applies to every file.
+SPECIALISED_FILES = {
+    "test_recursive", "test_segments", "test_state_files", "test_state_files_hostile",
+    "test_forgetting", "test_fuzz", "test_kernels_scratch", "test_lms", "test_edges_numerics",
+    "test_codegen", "test_benchmarks_smoke", "test_kernel_cache", "test_environment",
+    "test_fit_stats_agree", "test_diffuse", "test_window_stats", "test_rls_forms", "test_soa",
+}
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _kernel_sizes(request):
+    from adaptid import _config
+
+    name = request.module.__name__.rsplit(".", 1)[-1]
+    if name in SPECIALISED_FILES or "ADAPTID_MAX_SPECIALISED_N" in os.environ:
+        yield
+        return
+    saved = _config.MAX_SPECIALISED_N
+    _config.MAX_SPECIALISED_N = 0
+    try:
+        yield
+    finally:
+        _config.MAX_SPECIALISED_N = saved
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261121)
