@@ -31,18 +31,13 @@ SPECIALISED_FILES = {
 
 @pytest.fixture(autouse=True, scope="module")
 def _kernel_sizes(request):
-    from adaptid import _config
+    from adaptid.estimators import size_generic_kernels
 
-    name = request.module.__name__.rsplit(".", 1)[-1]
-    if name in SPECIALISED_FILES or "ADAPTID_MAX_SPECIALISED_N" in os.environ:
+    if request.module.__name__.rsplit(".", 1)[-1] in SPECIALISED_FILES:
         yield
         return
-    saved = _config.MAX_SPECIALISED_N
-    _config.MAX_SPECIALISED_N = 0
-    try:
+    with size_generic_kernels():
         yield
-    finally:
-        _config.MAX_SPECIALISED_N = saved
 
 
 @pytest.fixture

@@ -5,7 +5,6 @@ Errors in the user's input end the command with one line
 printed before it only with ``--debug``); typer's own usage errors exit 2 too.
 """
 
-import os
 import sys
 import traceback
 from contextlib import contextmanager
@@ -133,6 +132,16 @@ def _fail(message: str, out: Output, code: int = 2):
 
 
 @contextmanager
+def _generic_kernels():
+    """A shell command is one short process, mostly compile time: its estimators use the
+    size-generic kernels (one compilation for every model order, same results)."""
+    from ..estimators import size_generic_kernels
+
+    with size_generic_kernels():
+        yield
+
+
+@contextmanager
 def _guard(out: Output):
     """Turn every exception into one line on stderr (plus a traceback with --debug)."""
     try:
@@ -157,29 +166,6 @@ def _guard(out: Output):
               out, 1)
 
 
-@contextmanager
-def _size_generic_kernels():
-    """Estimators built inside use the size-generic compiled kernels (n a run-time value).
-
-    A shell command is one short process whose time is mostly compilation: the
-    generic kernel of an algorithm is compiled (or loaded) once for every model
-    size, where the kernels specialised per n (the Python default, faster per
-    sample) compile once per size. Results are bit for bit the same. Setting
-    ``ADAPTID_MAX_SPECIALISED_N`` in the environment keeps its choice.
-    """
-    from .. import _config
-
-    if "ADAPTID_MAX_SPECIALISED_N" in os.environ:
-        yield
-        return
-    saved = _config.MAX_SPECIALISED_N
-    _config.MAX_SPECIALISED_N = 0
-    try:
-        yield
-    finally:
-        _config.MAX_SPECIALISED_N = saved
-
-
 # --------------------------------------------------------------------- demo
 @app.command()
 def demo(
@@ -195,7 +181,8 @@ def demo(
     """Identify a simulated DC motor (R, L, Ke, J, B, Kt, friction) with RLS, the sliding
     window and the Kalman filter side by side; print a summary and write a report."""
     out = _output(ctx, quiet, verbose, debug, json)
-    with _guard(out), _size_generic_kernels():
+    # a shell command is one short process, mostly compile time: generic kernels
+    with _guard(out), _generic_kernels():
         from ._demo import run_demo
 
         result = run_demo(out_dir=None if no_report else out_dir, seed=seed, output=out)
@@ -309,7 +296,7 @@ def fit(
     c_k each sample's factor in the estimator's cost (adaptid.recursive_fit_stats).
     """
     out = _output(ctx, quiet, verbose, debug, json)
-    with _guard(out), _size_generic_kernels():
+    with _guard(out), _generic_kernels():
         from ._engine import MethodSpec
         from ._fit import run_fit
         from ._problem import Structure, parse_orders, split_names

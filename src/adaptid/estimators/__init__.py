@@ -17,6 +17,7 @@ from ._lms import LMS, NLMS
 from ._rls import RLS
 from ._segments import SegmentResult
 from ._settings import KernelSettings
+from ._sizes import size_generic_kernels
 from ._statefile import load_state, register_state_class, save_state
 from ._stats import RecursiveFitStats, recursive_fit_stats, sample_factors
 from ._trajectory import Trajectory
@@ -29,4 +30,4 @@ del _cls
 __all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS", "RecursiveEstimator", "Trajectory",
            "SegmentResult", "estimator", "METHODS", "method_of", "method_options",
            "recursive_fit_stats", "RecursiveFitStats", "sample_factors", "KernelSettings",
-           "load_state", "save_state", "register_state_class"]
+           "load_state", "save_state", "register_state_class", "size_generic_kernels"]
