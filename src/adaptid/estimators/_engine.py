@@ -403,9 +403,6 @@ class RecursiveEstimator:
                           f"<a non-finite value at sample {row if len(row) > 1 else row[0]}>")
 
     def _backup(self):
-        return self._S.copy() if self.nan_policy == "raise" else None
-
-    def _backup(self):
         return self._S.copy() if self._nan_policy == "raise" else None
 
     def _prepare_batch(self, B):
@@ -451,12 +448,6 @@ class RecursiveEstimator:
             f"P = U D Uᵀ passed windup_threshold={self.windup_threshold:.3g}, overflowed or "
             "lost positivity (forgetting with a direction not excited? see adaptid.forgetting)",
             CovarianceWindupWarning, stacklevel=3)
-
-    def _check_final_windup(self):
-        """After a run whose kernel does not watch the pivots (the window's)."""
-        _, D = self._ud_views(self._S)
-        if not np.all((D > 0) & (D < self.windup_threshold)):
-            self._warn_nonpositive(f"≤ {self.n_updates}")
 
     def _warn_rebuild(self, count):
         warnings.warn(
