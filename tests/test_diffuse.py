@@ -393,3 +393,47 @@ def test_factory_and_errors():
     with pytest.raises(ValueError, match="estimator"):
         RLS(3, P0="diffuse").kernel_settings()
     assert RLS(3).identified and RLS(3).diffuse is False
+
+
+# ---------------------------------------------------------- CLI and models
+def test_cli_fit_P0_diffuse(rng, tmp_path):
+    import json
+
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from adaptid.cli._app import app
+    Phi, y = _data(rng, N=200)
+    path = tmp_path / "data.csv"
+    pd.DataFrame({"a": Phi[:, 0], "b": Phi[:, 1], "c": Phi[:, 2], "y": y}).to_csv(
+        path, index=False, float_format="%.17g")
+    run = CliRunner()
+    for method, extra in (("rls", []), ("window", ["--window", "50"])):
+        res = run.invoke(app, ["fit", str(path), "--y", "y", "--phi", "a,b,c", "--method",
+                               method, *extra, "--P0", "diffuse", "--json"])
+        assert res.exit_code == 0, res.output
+        out = json.loads(res.stdout)
+        a = 0 if method == "rls" else 150
+        # the CSV holds every digit: the CLI's θ is the LS solution (1e-12: rounding only)
+        np.testing.assert_allclose(out["theta"], _lstsq(Phi[a:], y[a:]), rtol=1e-12)
+    res = run.invoke(app, ["fit", str(path), "--y", "y", "--phi", "a,b,c", "--P0", "difuse"])
+    assert res.exit_code == 2 and "--P0" in res.output
+
+
+def test_arx_fit_recursive_diffuse(rng):
+    """ARX (A(q)y = B(q)u + e; φ_k = [-y_{k-1}, -y_{k-2}, u_{k-1}], the model's documented
+    convention) with a diffuse RLS core: θ is lstsq on the same regressors built here."""
+    from adaptid.models import ARX
+    N = 300
+    u = rng.standard_normal(N)
+    yv = np.zeros(N)
+    for k in range(2, N):
+        yv[k] = 1.2 * yv[k - 1] - 0.5 * yv[k - 2] + 0.8 * u[k - 1] + 0.05 * rng.standard_normal()
+    m = ARX(2, 1, 1)
+    tr = m.fit_recursive(yv, u, estimator=RLS(3, P0="diffuse"))
+    Phi = np.column_stack([-yv[1:-1], -yv[:-2], u[1:-1]])
+    assert tr.identified is not None and tr.identified[-1]
+    for k in (3, 50, N - 3):  # after the first full-rank sample and at the end
+        ref = np.linalg.lstsq(Phi[:k + 1], yv[2:k + 3], rcond=None)[0]
+        assert _rel(tr.theta[k], ref) < 1e-10, k
+    np.testing.assert_allclose(m.theta, np.linalg.lstsq(Phi, yv[2:], rcond=None)[0], rtol=1e-10)
