@@ -437,3 +437,8 @@ def test_arx_fit_recursive_diffuse(rng):
         ref = np.linalg.lstsq(Phi[:k + 1], yv[2:k + 3], rcond=None)[0]
         assert _rel(tr.theta[k], ref) < 1e-10, k
     np.testing.assert_allclose(m.theta, np.linalg.lstsq(Phi, yv[2:], rcond=None)[0], rtol=1e-10)
+
+
+def test_to_c_refuses_diffuse(tmp_path):
+    with pytest.raises(ValueError, match="P0"):
+        RLS(2, P0="diffuse").to_c(tmp_path)
