@@ -124,6 +124,11 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
     >>> traj = est.run(Phi, y)
     >>> bool(np.allclose(est.theta, [1.0, -2.0, 0.5]))
     True
+    >>> exact = adaptid.RLS(3, P0="diffuse")     # no prior: least squares from sample 3 on
+    >>> exact.run(Phi[:3], y[:3]).identified.tolist()
+    [False, False, True]
+    >>> bool(np.allclose(exact.theta, [1.0, -2.0, 0.5], rtol=1e-12, atol=0))
+    True
     """
 
     _kind = "RLS"
