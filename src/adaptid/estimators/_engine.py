@@ -492,13 +492,14 @@ class RecursiveEstimator:
         window plus the decayed prior. A value near zero (relative to the
         regressors' scale) means some direction is not excited: its
         parameter combination is not identifiable from the recent data.
-        Float, or (B,) after ``run_batched``. AttributeError for the gradient
-        estimators (no P).
+        Float, or (B,) after ``run_batched``; 0 while a diffuse start
+        (``P0="diffuse"``) is not identified. AttributeError for the
+        gradient estimators (no P).
         """
         if not self._has_covariance:
             raise self._no_covariance("excitation (it needs the covariance P)")
         P = self.P
-        ident = np.isfinite(P).all(axis=(-2, -1))
+        ident = self._identified_of(self._S)
         ev = np.linalg.eigvalsh(np.where(ident[..., None, None], P, np.eye(self.n_params)))
         ex = np.where(ident, 1.0 / ev[..., -1], 0.0)  # not identified: a direction unexcited
         return ex if self._batch is not None else float(ex)
