@@ -190,3 +190,14 @@ MAX_SPECIALISED_N = int(os.environ.get("ADAPTID_MAX_SPECIALISED_N", "16"))
 #: falls below this value: the downdate would cancel more than half the
 #: digits in that direction.
 DOWNDATE_RTOL = 1e-8
+
+#: ``P0="diffuse"`` (exact diffuse start, :mod:`adaptid._kernels._diffuse`): RLS
+#: and the sliding window treat θ as identified once the square-root
+#: information factor R has σ_min(R) > DIFFUSE_RCOND · σ_max(R) (the weighted
+#: Φ is then of full numerical rank; below it the minimum-norm solution drops
+#: the smaller singular values, as ``numpy.linalg.lstsq(rcond=DIFFUSE_RCOND)``).
+DIFFUSE_RCOND = 1e-10
+#: The diffuse Kalman filter takes a sample as a rank step of P∞ when
+#: F∞ = φᵀP∞φ > DIFFUSE_KALMAN_TOL · φᵀφ (P∞ starts as I; statsmodels uses an
+#: absolute 1e-10 on F∞).
+DIFFUSE_KALMAN_TOL = 1e-10

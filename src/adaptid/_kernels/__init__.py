@@ -5,6 +5,9 @@
   :mod:`._lms` — one
   module per recursive algorithm, each with the four entry points of one
   common signature (``update``, ``run``, ``run_batched``, ``run_segments``);
+* :mod:`._diffuse`, :mod:`._diffuse_kalman` — the exact diffuse start
+  (``P0="diffuse"``) of RLS, the window and the Kalman filter, a prologue
+  before the ordinary streams, with the same four entry points;
 * :mod:`._dims` — the tags that make n and p compile-time constants
   (specialisation per n without generating source), :mod:`._scratch` —
   stack-allocated work arrays.
@@ -17,7 +20,8 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-__all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "NLMS", "tags"]
+__all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "NLMS", "RLS_DIFFUSE",
+           "WINDOW_DIFFUSE", "KALMAN_DIFFUSE", "tags"]
 
 from ._cache import install as _install_cache
 from ._dims import tags
@@ -46,7 +50,10 @@ def __getattr__(name):
     # dispatchers of the others
     table = {"RLS": ("_rls", "rls"), "STRATEGY": ("_strategy", "strategy"),
              "KALMAN": ("_kalman", "kalman"), "WINDOW": ("_window", "window"),
-             "LMS": ("_lms", "lms"), "NLMS": ("_lms", "nlms")}
+             "LMS": ("_lms", "lms"), "NLMS": ("_lms", "nlms"),
+             "RLS_DIFFUSE": ("_diffuse", "rls_diffuse"),
+             "WINDOW_DIFFUSE": ("_diffuse", "window_diffuse"),
+             "KALMAN_DIFFUSE": ("_diffuse_kalman", "kalman_diffuse")}
     if name in table:
         value = _entries(*table[name])
         globals()[name] = value

@@ -9,7 +9,11 @@ exactly from its buffer instead.
 Entry points as in :mod:`._rls`, with ``opt = [windup threshold, M, rtol]``;
 the code returned is the number of re-solves. State layout after the U-D
 part: ``[ L, pos, count | Φ buffer (M·n) | Y buffer (M·p) | weights (M) |
-log-λ sums (M) | theta0 (n·p) | U0 (n·n) | D0 (n) ]``.
+log-λ sums (M) | theta0 (n·p) | U0 (n·n) | D0 (n) ]``, and with ``P0="diffuse"``
+a tail ``[flag, stop]`` (:mod:`._diffuse`): the stream is then called with
+``diffuse=True`` and, instead of re-solving with the prior, stops after the
+sample whose removal needs a re-solve (``stop`` = samples consumed) for
+:mod:`._diffuse` to re-solve the window without a prior.
 """
 
 import numpy as np
@@ -72,7 +76,7 @@ def _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
 # The window's stream is written flat (no per-step array views, branches at
 # the top of the loop body): 1.5-2x faster than composing the helpers above.
 @njit(**NJIT_INLINE)
-def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, p):
+def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, p, diffuse=False):
     theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
     f = np.empty(NP)
     v = np.empty(NP)
@@ -139,6 +143,9 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, p):
                 meta[2] = count + 1
             if rebuilt:
                 rebuilds += 1
+                if diffuse:  # no prior: _diffuse re-solves (samples used so far in S[-1])
+                    S[S.shape[0] - 1] = k + 1
+                    return rebuilds
                 _rebuild_noinline(S, M, NP, p)
         else:
             skipped[k] = True

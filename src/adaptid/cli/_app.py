@@ -272,8 +272,11 @@ def fit(
                                                          rich_help_panel="Method")] = None,
     noise_var: Annotated[Optional[float], typer.Option("--noise-var", help="R2: noise variance (kalman).",
                                                        rich_help_panel="Method")] = None,
-    p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I (default 1e4).",
-                                                rich_help_panel="Method")] = None,
+    p0: Annotated[Optional[str], typer.Option("--P0", help="Prior covariance P0·I (default 1e4), "
+                                              "or 'diffuse' for an exact diffuse start (no "
+                                              "prior: least squares from the first sample "
+                                              "of full rank).",
+                                              rich_help_panel="Method")] = None,
     step: Annotated[Optional[float], typer.Option("--step", help="Adaptation gain μ > 0 (lms, nlms).",
                                                   rich_help_panel="Method")] = None,
     eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε ≥ 0 (nlms; "
@@ -297,7 +300,7 @@ def fit(
     """
     out = _output(ctx, quiet, verbose, debug, json)
     with _guard(out), _generic_kernels():
-        from ._engine import MethodSpec
+        from ._engine import MethodSpec, parse_P0
         from ._fit import run_fit
         from ._problem import Structure, parse_orders, split_names
 
@@ -314,8 +317,8 @@ def fit(
         if method is not None:
             method = method.strip().lower()
         spec = MethodSpec(method=method, forgetting=forgetting, window=window,
-                          process_cov=process_cov, noise_var=noise_var, P0=p0,
-                          step=step, eps=eps)
+                          process_cov=process_cov, noise_var=noise_var,
+                          P0=parse_P0(p0), step=step, eps=eps)
         result = run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
                          save_state=save_state, resume=resume, output=out, tracks=tracks,
                          summary=summary, export_c=export_c, c_name=c_name, float32=float32)

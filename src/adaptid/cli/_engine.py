@@ -43,7 +43,7 @@ class MethodSpec:
     window: int | None = None
     process_cov: float | None = None
     noise_var: float | None = None
-    P0: float | None = None
+    P0: float | str | None = None  # a float, or "diffuse"
     step: float | None = None   # lms, nlms
     eps: float | None = None    # nlms
 
@@ -172,8 +172,22 @@ _REASON = ("outside it float64 arithmetic overflows or loses the estimate "
            "(see 'Numbers the shell accepts' in the user guide)")
 
 
+def parse_P0(text):
+    """``--P0``: a number, or ``diffuse`` (exact diffuse start); None if not given."""
+    if text is None:
+        return None
+    if text.strip().lower() == "diffuse":
+        return "diffuse"
+    try:
+        return float(text)
+    except ValueError:
+        raise CLIError(f"--P0 must be a number or 'diffuse', got {text!r}") from None
+
+
 def check_ranges(*, forgetting=None, P0=None, process_cov=None, noise_var=None):
     """Raise CLIError naming the option for a value outside :data:`RANGES`."""
+    if P0 == "diffuse":
+        P0 = None  # no range to check
     for opt, val in (("--forgetting", forgetting), ("--P0", P0),
                      ("--process-cov", process_cov), ("--noise-var", noise_var)):
         if val is None:

@@ -275,6 +275,9 @@ _FMA = r"""/* FMA(a, b, c) = a*b + c. adaptid's compiled kernels fuse each of th
 
 def generate(state, name="rls", dtype="float64"):
     """The texts of NAME.h and NAME.c for a ``get_state()`` dict."""
+    if isinstance(state.get("options"), dict) and state["options"].get("P0") == "diffuse":
+        raise param_error("est", "an estimator with a finite P0 (the generated C has no "
+                          "exact diffuse start)", "<P0='diffuse'>")
     name = check_name(name)
     dtype = check_choice(dtype, "dtype", DTYPES)
     info = describe(state)

@@ -159,27 +159,71 @@ class RecursiveEstimator:
         self.n_outputs = th0.shape[1]
         self._single = single
         self.theta0 = th0
+        self._diffuse = False
         if not self._has_covariance:
             self.P0 = None
             windup_threshold = np.inf  # nothing to wind up
+        elif isinstance(P0, str):
+            self._check_diffuse(P0, th0)
+            self._diffuse = True
+            self.P0 = "diffuse"
+            self._U0, self._D0 = np.eye(n), np.ones(n)  # placeholders until identified
         else:
             self.P0 = check_spd(P0, "P0", n)
             self._U0, self._D0 = ud_from_P(self.P0)
         if windup_threshold is None:
-            scale = float(np.max(np.diag(self.P0)))
+            scale = 0.0 if self._diffuse else float(np.max(np.diag(self.P0)))
             Q = getattr(self, "process_cov", None)
             if Q is not None:
                 scale = max(scale, float(np.max(np.diag(Q))))
-            windup_threshold = 1e6 * scale
+            windup_threshold = 1e6 * scale if scale > 0 else np.inf
         self._windup_threshold = check_scalar(windup_threshold, "windup_threshold", low=0.0,
                                               low_open=True, finite=False)
         self._e = np.empty(self.n_outputs)
         self._ybuf = np.empty(1)
         self._lk = np.empty(1)
-        self._step = _StepArrays(n, self.n_outputs, self._reports_forgetting)
+        self._step = _StepArrays(n, self.n_outputs, self._reports_forgetting or self._diffuse)
         self._ntag, self._ptag = _kernels.tags(n, self.n_outputs)
         self._sync_options()
         self.reset()
+
+    def _check_diffuse(self, P0, th0):
+        if P0 != "diffuse":
+            raise param_error("P0", "a positive scalar, a symmetric positive definite (n, n) "
+                              "matrix or 'diffuse'", P0)
+        if np.any(th0 != 0.0):
+            raise param_error("theta0", "None (zeros) with P0='diffuse' (a diffuse prior has "
+                              "no mean)", "<nonzero values>")
+
+    @property
+    def diffuse(self) -> bool:
+        """True for an exact diffuse start (``P0="diffuse"``)."""
+        return self._diffuse
+
+    def _diffuse_tail(self) -> int:
+        """Length of the diffuse part at the end of the state vector (0 unless diffuse)."""
+        return 0
+
+    def _fill_diffuse(self, T):
+        """Initial diffuse tail (zeros: not identified, no information)."""
+
+    def _identified_of(self, S):
+        if not self._diffuse:
+            return np.ones(S.shape[:-1], dtype=bool)
+        return S[..., S.shape[-1] - self._diffuse_tail()] != 0.0
+
+    @property
+    def identified(self):
+        r"""Whether the data determine θ (bool; (B,) after ``run_batched``).
+
+        Always True with a finite prior ``P0``. With ``P0="diffuse"`` False
+        until the (weighted, forgotten or windowed) information matrix
+        :math:`\Phi^TW\Phi` has full numerical rank — θ is then the
+        minimum-norm least-squares solution (RLS, window) or the diffuse
+        Kalman filter's estimate, ``P`` is inf and :meth:`predict` NaN.
+        """
+        ident = self._identified_of(self._S)
+        return bool(ident) if self._batch is None else ident
 
     # ------------------------------------------------ what an algorithm declares
     def _entries(self):
@@ -231,13 +275,15 @@ class RecursiveEstimator:
     # ---------------------------------------------------------------- state
     def _state_length(self) -> int:
         n, p = self.n_params, self.n_outputs
-        return n * p + n * n + n
+        return n * p + n * n + n + self._diffuse_tail()
 
     def _fill_initial(self, S):
         n, p = self.n_params, self.n_outputs
         S[: n * p] = self.theta0.ravel()
         S[n * p: n * p + n * n] = self._U0.T.ravel()  # U by columns (see adaptid._kernels)
         S[n * p + n * n: n * p + n * n + n] = self._D0
+        if self._diffuse:
+            self._fill_diffuse(S[S.shape[0] - self._diffuse_tail():])
 
     def reset(self):
         """Return to the prior (θ₀, P₀) and forget all data and any batch axis."""
@@ -281,7 +327,10 @@ class RecursiveEstimator:
         if not self._has_covariance:
             raise self._no_covariance("covariance P")
         U, D = self._ud_views(self._S)
-        return P_from_ud(U, D)
+        P = P_from_ud(U, D)
+        if self._diffuse:
+            P[~self._identified_of(self._S)] = np.inf
+        return P
 
     @property
     def batch_size(self):
@@ -415,14 +464,15 @@ class RecursiveEstimator:
                               f"<{B} streams>")
         return S
 
-    def _finish(self, Th, E, skipped, store, n_rebuilds=0, lk=None):
+    def _finish(self, Th, E, skipped, store, n_rebuilds=0, lk=None, ident=None):
         if self._single:
             Th = Th[..., 0]
             E = E[..., 0]
         if not store:
             Th = Th[..., :0, :] if self._single else Th[..., :0, :, :]
+        ident = ident != 0.0 if self._diffuse else None
         return Trajectory(theta=Th, error=E, skipped=skipped, n_rebuilds=int(n_rebuilds),
-                          forgetting=lk)
+                          forgetting=lk, identified=ident)
 
     def _alloc(self, shape_N, store):
         n, p = self.n_params, self.n_outputs
@@ -483,13 +533,17 @@ class RecursiveEstimator:
         window plus the decayed prior. A value near zero (relative to the
         regressors' scale) means some direction is not excited: its
         parameter combination is not identifiable from the recent data.
-        Float, or (B,) after ``run_batched``. AttributeError for the gradient
-        estimators (no P).
+        Float, or (B,) after ``run_batched``; 0 while a diffuse start
+        (``P0="diffuse"``) is not identified. AttributeError for the
+        gradient estimators (no P).
         """
         if not self._has_covariance:
             raise self._no_covariance("excitation (it needs the covariance P)")
-        ev = np.linalg.eigvalsh(self.P)
-        return 1.0 / ev[..., -1] if self._batch is not None else float(1.0 / ev[-1])
+        P = self.P
+        ident = self._identified_of(self._S)
+        ev = np.linalg.eigvalsh(np.where(ident[..., None, None], P, np.eye(self.n_params)))
+        ex = np.where(ident, 1.0 / ev[..., -1], 0.0)  # not identified: a direction unexcited
+        return ex if self._batch is not None else float(ex)
 
     # ------------------------------------------------------------ the runs
     def update(self, phi, y, *, weight=1.0, forgetting=None):
@@ -605,7 +659,7 @@ class RecursiveEstimator:
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
         lam = self._lam_run(forgetting, Phi.shape[:1])
         Th, E, skipped = self._alloc(Phi.shape[:1], store)
-        Lk = np.empty(Phi.shape[0] if self._reports else 0)
+        Lk = np.empty(Phi.shape[0] if self._reports or self._diffuse else 0)
         backup = self._backup()
         code = self._kern.run(self._S, Phi, Y, lam, w, Th, E, skipped, Lk, self._opt,
                               self._mat, self._ntag, self._ptag)
@@ -613,7 +667,7 @@ class RecursiveEstimator:
         self._count(skipped)
         self._report_codes(code, None)
         traj = self._finish(Th, E, skipped, store, code if self._code_is_rebuilds else 0,
-                            Lk if self._reports else None)
+                            Lk if self._reports else None, Lk)
         return _dataclass_replace(traj, **labels) if labels else traj
 
     def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
@@ -637,7 +691,7 @@ class RecursiveEstimator:
         lam = self._lam_run(forgetting, shape_N)
         S = self._prepare_batch(shape_N[0])
         Th, E, skipped = self._alloc(shape_N, store)
-        Lk = np.empty(shape_N if self._reports else (shape_N[0], 0))
+        Lk = np.empty(shape_N if self._reports or self._diffuse else (shape_N[0], 0))
         codes = np.empty(shape_N[0], dtype=np.int64)
         self._kern.run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, self._opt, self._mat,
                                codes, self._ntag, self._ptag)
@@ -647,7 +701,7 @@ class RecursiveEstimator:
         self._report_codes(codes, "stream")
         return self._finish(Th, E, skipped, store,
                             codes.sum() if self._code_is_rebuilds else 0,
-                            Lk if self._reports else None)
+                            Lk if self._reports else None, Lk)
 
     def run_segments(self, Phi, y, offsets, *, weights=None, store=False):
         r"""Run G independent streams stored back to back, in one compiled, parallel call.
@@ -685,7 +739,7 @@ class RecursiveEstimator:
         Sout = np.empty((G, S0.shape[0]))
         Th, E, skipped = self._alloc((N,), store)
         lam = self._lam_run(None, Phi.shape[:1])
-        Lk = np.empty(N if self._reports else 0)
+        Lk = np.empty(N if self._reports or self._diffuse else 0)
         status = np.empty(G, dtype=np.int64)
         self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, self._opt,
                                 self._mat, status, self._ntag, self._ptag)
@@ -694,6 +748,8 @@ class RecursiveEstimator:
         segment_stats(E, skipped, off, n_skip, sse)
         n_used = np.diff(off) - n_skip
         P = P_from_ud(*self._ud_views(Sout)) if self._has_covariance else None
+        if self._diffuse:
+            P[~self._identified_of(Sout)] = np.inf
         theta = self._theta_view(Sout).copy()
         if self._single:
             E, sse = E[:, 0], sse[:, 0]
@@ -732,6 +788,9 @@ class RecursiveEstimator:
         """
         n = self.n_params
         theta = self._theta_view(self._S)
+        if self._diffuse and not self._identified_of(self._S).all():
+            theta = np.where(self._identified_of(self._S).reshape(
+                self._S.shape[:-1] + (1,) * (theta.ndim - self._S.ndim + 1)), theta, np.nan)
         if self._batch is None:
             phi = as_float_array(phi, "phi", ndim=(1, 2))
             if phi.shape[-1] != n:
@@ -764,9 +823,9 @@ class RecursiveEstimator:
             "n_params": self.n_params,
             "n_outputs": self.n_outputs,
             "single_output": self._single,
-            "options": self._options(),
+            "options": dict(self._options(), **({"P0": "diffuse"} if self._diffuse else {})),
             "theta0": self.theta0.copy(),
-            "P0": None if self.P0 is None else self.P0.copy(),
+            "P0": None if self.P0 is None or self._diffuse else self.P0.copy(),
             "state": self._S.copy(),
             "batch": self._batch,
             "n_updates": self.n_updates,
@@ -791,6 +850,10 @@ class RecursiveEstimator:
         """
         from ._settings import KernelSettings
         self._check_single("kernel_settings")
+        if self._diffuse:
+            raise param_error("estimator", "an estimator with a finite P0 for this recursion "
+                              "(P0='diffuse' is not supported by the pseudo-linear "
+                              "recursions of adaptid.models)", "<P0='diffuse'>")
         n, p = self.n_params, self.n_outputs
         U, D = self._ud_views(self._S)
         theta = self._S[: n * p].reshape(n, p).copy()

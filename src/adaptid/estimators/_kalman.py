@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import _kernels
+from .. import _config, _kernels
 from .._validation import as_float_array, check_int, check_scalar, param_error, symmetrised
 from ._engine import RecursiveEstimator
 
@@ -39,7 +39,33 @@ class KalmanRLS(RecursiveEstimator):
     noise_var : float
         R₂ > 0 (default 1).
     theta0, P0, nan_policy, n_outputs
-        As for :class:`RLS`.
+        As for :class:`RLS`. ``P0="diffuse"`` is the exact diffuse
+        initialisation of Koopman and Durbin (Durbin & Koopman 2012, §5.2,
+        univariate treatment §6.4): :math:`P = \kappa P_\infty + P_*`,
+        :math:`\kappa\to\infty`, :math:`P_\infty = I`, :math:`P_* = 0`; per
+        sample with :math:`F_\infty = \varphi^TP_\infty\varphi`,
+        :math:`F_* = \varphi^TP_*\varphi + R_2/w`,
+        :math:`M_\infty = P_\infty\varphi`, :math:`M_* = P_*\varphi`:
+
+        .. math::
+
+            F_\infty > 0:\; \hat\theta \mathrel{+}= \frac{M_\infty}{F_\infty}\varepsilon,\;
+            P_* \mathrel{+}= \frac{F_*}{F_\infty^2}M_\infty M_\infty^T
+              - \frac{M_*M_\infty^T + M_\infty M_*^T}{F_\infty},\;
+            P_\infty \mathrel{-}= \frac{M_\infty M_\infty^T}{F_\infty};\qquad
+            F_\infty = 0:\; \hat\theta \mathrel{+}= \frac{M_*}{F_*}\varepsilon,\;
+            P_* \mathrel{-}= \frac{M_*M_*^T}{F_*},
+
+        then :math:`P_* \mathrel{+}= R_1`. After n steps with
+        :math:`F_\infty > 0` (:math:`F_\infty > 10^{-10}\varphi^T\varphi`)
+        :math:`P_\infty = 0`, ``identified`` becomes True and the U-D filter
+        continues from :math:`P_*`. The filtered θ equals statsmodels'
+        state-space filter with ``initialization="diffuse"``.
+
+    References
+    ----------
+    .. [1] J. Durbin, S. J. Koopman, *Time Series Analysis by State Space
+       Methods*, 2nd ed., Oxford University Press, 2012, §5.2, §6.4.
     """
 
     _kind = "KalmanRLS"
@@ -69,9 +95,19 @@ class KalmanRLS(RecursiveEstimator):
 
     # what the engine needs to know
     def _entries(self):
-        return _kernels.KALMAN
+        return _kernels.KALMAN_DIFFUSE if self._diffuse else _kernels.KALMAN
+
+    def _diffuse_tail(self):
+        n = self.n_params
+        return 2 + 2 * n * n if self._diffuse else 0  # [flag, rank steps, P∞, P*]
+
+    def _fill_diffuse(self, T):
+        n = self.n_params
+        T[2: 2 + n * n] = np.eye(n).ravel()  # P∞ = I, P* = 0
 
     def _kernel_options(self):
         skip = 1.0 if self._nan_policy == "skip" else 0.0
-        return (np.array([self._windup_threshold, self.noise_var, skip]),
-                np.ascontiguousarray(self.process_cov))
+        opt = [self._windup_threshold, self.noise_var, skip]
+        if self._diffuse:
+            opt.append(_config.DIFFUSE_KALMAN_TOL)
+        return np.array(opt), np.ascontiguousarray(self.process_cov)

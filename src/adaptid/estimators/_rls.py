@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import _kernels
+from .. import _config, _kernels
 from .._validation import check_int, check_scalar, param_error
 from ..forgetting import ConstantTrace, EFRA, resolve as _resolve_forgetting
 from ._engine import RecursiveEstimator, _ForgettingMixin
@@ -60,10 +60,12 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
         Default ``1e6 * max(diag(P0))``; ``inf`` watches definiteness only.
     theta0 : array_like, shape (n,) or (n, p), optional
         Prior mean θ₀ (default zeros).
-    P0 : float or array_like, shape (n, n)
+    P0 : float, array_like, shape (n, n), or "diffuse"
         Prior covariance: a scalar c means c·I (default 1e4); a matrix must be
         symmetric positive definite. ``P0 → ∞`` with λ = 1 gives ordinary
-        least squares.
+        least squares; ``"diffuse"`` is that limit taken exactly (no ridge
+        term 1/P0 left; see Notes). Not with a forgetting strategy or
+        ``P_max``; ``theta0`` must then be None.
     nan_policy : {"raise", "skip"}
         What a sample with NaN or inf in φ or y does: raise ``ValueError``
         (default), or be skipped — θ and P are left exactly as they were (no
@@ -77,8 +79,34 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
     ----------
     theta : ndarray, shape (n,) or (n, p)
     P : ndarray, shape (n, n)
+        inf entries while a diffuse start is not yet identified.
+    identified : bool
+        False only during the diffuse phase of ``P0="diffuse"``.
     n_updates : int
         Samples processed (skipped ones not counted).
+
+    Notes
+    -----
+    Exact diffuse start (``P0="diffuse"``): the prior term of :math:`V_N` is
+    dropped. A square-root information filter (Bierman 1977, ch. V–VI) keeps
+    an upper triangular :math:`R` and :math:`z` with
+
+    .. math::
+
+        R_k^T R_k = \lambda_k R_{k-1}^T R_{k-1} + w_k\varphi_k\varphi_k^T,\qquad
+        R_k^T z_k = \lambda_k R_{k-1}^T z_{k-1} + w_k\varphi_k y_k
+
+    (scaling by :math:`\sqrt{\lambda_k}`, the row :math:`\sqrt{w_k}[\varphi_k^T, y_k]`
+    rotated in by Givens rotations). While :math:`R_k` is numerically
+    singular (:math:`\sigma_{\min} \le 10^{-10}\sigma_{\max}`,
+    ``adaptid._config.DIFFUSE_RCOND``) θ is the minimum-norm least-squares
+    solution and ``identified`` is False (``P`` inf, :meth:`predict` NaN). At
+    the first sample of full rank :math:`\hat\theta = R^{-1}z` — the exact
+    (weighted, forgotten) least-squares solution — and the U-D factors of
+    :math:`P = WW^T`, :math:`W = R^{-1}`, are :math:`U = W\,\mathrm{diag}(W)^{-1}`,
+    :math:`D = \mathrm{diag}(W)^2`; the ordinary recursion continues from
+    there. A large finite P0 instead leaves the ridge term and differs from
+    least squares by about :math:`\|(\Phi^T\Phi)^{-1}\|/P_0` relative.
 
     References
     ----------
@@ -96,6 +124,11 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
     >>> traj = est.run(Phi, y)
     >>> bool(np.allclose(est.theta, [1.0, -2.0, 0.5]))
     True
+    >>> exact = adaptid.RLS(3, P0="diffuse")     # no prior: least squares from sample 3 on
+    >>> exact.run(Phi[:3], y[:3]).identified.tolist()
+    [False, False, True]
+    >>> bool(np.allclose(exact.theta, [1.0, -2.0, 0.5], rtol=1e-12, atol=0))
+    True
     """
 
     _kind = "RLS"
@@ -112,6 +145,10 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
         self.P_max = P_max
         strat = self._strategy
         self._fast = strat is None and P_max is None
+        if isinstance(P0, str) and not self._fast:
+            raise param_error("P0", "a positive scalar or an SPD matrix with a forgetting "
+                              "strategy or P_max ('diffuse' needs constant or per-sample "
+                              "exponential forgetting)", P0)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
                          n_outputs=n_outputs, windup_threshold=windup_threshold)
         if isinstance(strat, EFRA):
@@ -131,9 +168,17 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
         return not self._fast
 
     def _entries(self):
+        if self._diffuse:
+            return _kernels.RLS_DIFFUSE
         return _kernels.RLS if self._fast else _kernels.STRATEGY
 
+    def _diffuse_tail(self):
+        n, p = self.n_params, self.n_outputs
+        return 1 + n * n + n * p if self._diffuse else 0  # [flag, R, z]
+
     def _kernel_options(self):
+        if self._diffuse:
+            return np.array([self._windup_threshold, _config.DIFFUSE_RCOND]), np.zeros((1, 1))
         if self._fast:
             return np.array([self._windup_threshold]), np.zeros((1, 1))
         strat = self._strategy

@@ -209,7 +209,13 @@ def core_layout(path, header, kind):
     if kind == "SlidingWindowRLS":
         M = _int(path, opts, "window", n, MAX_WINDOW)
         L = 2 * L + 3 + M * (n + p + 2)
-    shapes = {"theta0": (n, p), "P0": (n, n), "state": (L,) if batch is None else (batch, L)}
+    P0 = opts.get("P0")
+    if P0 is not None and P0 != "diffuse":
+        refuse(path, f"header option 'P0' must be 'diffuse' when present, got {P0!r:.40}")
+    L += diffuse_tail(kind, n, p) if P0 == "diffuse" else 0
+    shapes = {"theta0": (n, p), "state": (L,) if batch is None else (batch, L)}
+    if P0 is None:
+        shapes["P0"] = (n, n)
     if kind == "KalmanRLS":
         shapes["process_cov"] = (n, n)
     total = sum(8 * int(np.prod(s, dtype=np.float64)) for s in shapes.values())
@@ -247,9 +253,16 @@ def _factor_ok(S, o, n, p):
             & np.all(np.isfinite(D) & (D > 0), axis=1))
 
 
+def diffuse_tail(kind, n, p):
+    """Length of the diffuse tail of a ``P0="diffuse"`` state (see ``_kernels._diffuse``)."""
+    return {"RLS": 1 + n * n + n * p, "SlidingWindowRLS": 2,
+            "KalmanRLS": 2 + 2 * n * n}.get(kind, 0)
+
+
 def check_content(path, kind, header, arrays):
     """Refuse values no saved estimator holds (after the checksum: forged, not damaged)."""
     n, p = header["n_params"], header["n_outputs"]
+    tail = diffuse_tail(kind, n, p) if header["options"].get("P0") == "diffuse" else 0
     for name in ("theta0", "P0", "process_cov"):
         if name in arrays and not np.all(np.isfinite(arrays[name])):
             refuse(path, f"array {name!r} holds NaN or inf")
@@ -261,7 +274,10 @@ def check_content(path, kind, header, arrays):
     if kind == "SlidingWindowRLS":
         core = n * p + n * n + n
         ok &= np.all(np.isfinite(S[:, core:-core]), axis=1)     # L, indices, buffers
-        ok &= _factor_ok(S, S.shape[1] - core, n, p)            # the prior's copy
+        ok &= _factor_ok(S, S.shape[1] - core - tail, n, p)     # the prior's copy
+    if tail:  # flag 0 or 1, the rest finite
+        T = S[:, S.shape[1] - tail:]
+        ok &= np.isin(T[:, 0], (0.0, 1.0)) & np.all(np.isfinite(T), axis=1)
     if not ok.all():
         row = int(np.flatnonzero(~ok)[0])
         refuse(path, f"inconsistent state{' (stream %d)' % row if S.shape[0] > 1 else ''}: "

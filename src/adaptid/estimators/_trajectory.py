@@ -40,6 +40,15 @@ class Trajectory:
     stderr : ndarray, shape (N, n), or None
         Standard error of every estimate when the producer kept the P
         history; :meth:`plot` then draws ±2σ bands.
+    identified : ndarray of bool, shape (N,) or (B, N), or None
+        Estimators with an exact diffuse start (``P0="diffuse"``): whether θ
+        was determined by the data after sample k, i.e. the (weighted,
+        forgotten or windowed) information matrix :math:`\Phi^TW\Phi` had
+        full numerical rank (``theta[k]`` is then the exact least-squares
+        solution); where False, ``theta[k]`` is the minimum-norm
+        least-squares solution (the diffuse Kalman filter's estimate for
+        :class:`~adaptid.KalmanRLS`). A skipped sample keeps the previous
+        value. None for estimators with a finite prior ``P0``.
     """
 
     theta: np.ndarray
@@ -51,6 +60,7 @@ class Trajectory:
     names: tuple | None = None
     time: np.ndarray | None = field(default=None, repr=False)
     stderr: np.ndarray | None = field(default=None, repr=False)
+    identified: np.ndarray | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return self.error.shape[-1] if self.error.ndim == 1 else self.skipped.shape[-1]

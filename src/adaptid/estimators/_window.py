@@ -49,7 +49,13 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
     window : int
         M ≥ n_params, the number of samples in the window.
     forgetting, theta0, P0, nan_policy, n_outputs
-        As for :class:`RLS`.
+        As for :class:`RLS`. With ``P0="diffuse"`` the prior term is
+        dropped: θ is the least-squares solution over the window contents
+        alone (what ``statsmodels`` ``RollingOLS`` gives), computed exactly
+        (square-root information, Bierman 1977, ch. V) whenever the window
+        is rank-deficient — at the start and after a removal that would make
+        it so — with θ then the minimum-norm solution and ``identified``
+        False; the re-solves from the buffer use no prior.
 
     References
     ----------
@@ -75,7 +81,7 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
 
     def _state_length(self):
         n, p, M = self.n_params, self.n_outputs, self.window
-        return (n * p + n * n + n) * 2 + 3 + M * (n + p + 2)
+        return (n * p + n * n + n) * 2 + 3 + M * (n + p + 2) + self._diffuse_tail()
 
     def _fill_initial(self, S):
         super()._fill_initial(S)
@@ -83,7 +89,7 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
         o = n * p + n * n + n + 3 + M * (n + p + 2)
         S[o: o + n * p] = self.theta0.ravel()
         S[o + n * p: o + n * p + n * n] = self._U0.T.ravel()
-        S[o + n * p + n * n:] = self._D0
+        S[o + n * p + n * n: o + n * p + n * n + n] = self._D0
 
     def _check_state(self, S):
         super()._check_state(S)
@@ -103,8 +109,13 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
     _code_is_rebuilds = True
 
     def _entries(self):
-        return _kernels.WINDOW
+        return _kernels.WINDOW_DIFFUSE if self._diffuse else _kernels.WINDOW
+
+    def _diffuse_tail(self):
+        return 2 if self._diffuse else 0  # [flag, stop]
 
     def _kernel_options(self):
-        return (np.array([self._windup_threshold, self.window, _config.DOWNDATE_RTOL]),
-                np.zeros((1, 1)))
+        opt = [self._windup_threshold, self.window, _config.DOWNDATE_RTOL]
+        if self._diffuse:
+            opt.append(_config.DIFFUSE_RCOND)
+        return np.array(opt), np.zeros((1, 1))
