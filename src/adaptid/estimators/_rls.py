@@ -130,6 +130,10 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
     def _reports_forgetting(self):
         return not self._fast
 
+    @property
+    def _supports_stats(self):
+        return self._fast
+
     def _entries(self):
         return _kernels.RLS if self._fast else _kernels.STRATEGY
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from .._validation import as_float_array, param_error
 
-__all__ = ["RecursiveFitStats", "recursive_fit_stats", "sample_factors"]
+__all__ = ["RecursiveFitStats", "recursive_fit_stats", "sample_factors", "sigma2_rule"]
 
 
 @dataclass(frozen=True)
@@ -115,12 +115,40 @@ def recursive_fit_stats(est, Phi, y, *, weights=None, forgetting=None, used=None
         ssr = float(np.sum(c * w * r * r))
     n_eff = float(np.sum(c))
     dof = n_eff - n
-    sigma2 = ssr / dof if dof > 0 else float("nan")
     if not type(est)._has_covariance:  # LMS / NLMS: no P, no standard errors
+        sigma2 = ssr / dof if dof > 0 else float("nan")
         return RecursiveFitStats(sigma2=sigma2, stderr=np.full(n, np.nan), dof=dof,
                                  n_eff=n_eff, ssr=ssr)
     r2 = float(getattr(est, "noise_var", 1.0))
-    diag = np.clip(np.diagonal(np.asarray(est.P)), 0.0, None)
-    with np.errstate(invalid="ignore", over="ignore"):
-        stderr = np.sqrt(diag * (sigma2 / r2))
-    return RecursiveFitStats(sigma2=sigma2, stderr=stderr, dof=dof, n_eff=n_eff, ssr=ssr)
+    sigma2, stderr = sigma2_rule(np.array([ssr]), np.float64(n_eff), n,
+                                 np.diagonal(np.asarray(est.P)), r2)
+    return RecursiveFitStats(sigma2=float(sigma2[0]), stderr=stderr[:, 0], dof=dof,
+                             n_eff=n_eff, ssr=ssr)
+
+
+def sigma2_rule(ssr, n_eff, n, diag_P, r2=1.0):
+    r"""The rule itself, for one fit or for every sample of a run (arrays broadcast).
+
+    :math:`\hat\sigma^2 = \mathrm{ssr}/(n_\mathrm{eff} - n)` (NaN where
+    :math:`n_\mathrm{eff} \le n`) and :math:`\mathrm{se} = \sqrt{\hat\sigma^2
+    \max(P_{ii}, 0)/R_2}`.
+
+    Parameters
+    ----------
+    ssr : ndarray, shape (..., p)
+    n_eff : ndarray, shape (...)
+    n : int
+    diag_P : ndarray, shape (..., n)
+    r2 : float
+
+    Returns
+    -------
+    sigma2 : ndarray, shape (..., p)
+    stderr : ndarray, shape (..., n, p)
+    """
+    dof = np.asarray(n_eff, dtype=np.float64)[..., None] - n
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        sigma2 = np.where(dof > 0, ssr / np.where(dof > 0, dof, 1.0), np.nan)
+        diag = np.clip(np.asarray(diag_P, dtype=np.float64), 0.0, None)
+        stderr = np.sqrt(diag[..., :, None] * (sigma2[..., None, :] / r2))
+    return sigma2, stderr

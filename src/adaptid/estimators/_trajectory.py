@@ -40,6 +40,9 @@ class Trajectory:
     stderr : ndarray, shape (N, n), or None
         Standard error of every estimate when the producer kept the P
         history; :meth:`plot` then draws ±2σ bands.
+    stats : WindowStats or None
+        The per-sample statistics of the window (``run(..., stats=True)``);
+        None when not asked for.
     """
 
     theta: np.ndarray
@@ -51,6 +54,7 @@ class Trajectory:
     names: tuple | None = None
     time: np.ndarray | None = field(default=None, repr=False)
     stderr: np.ndarray | None = field(default=None, repr=False)
+    stats: object | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return self.error.shape[-1] if self.error.ndim == 1 else self.skipped.shape[-1]
