@@ -25,7 +25,7 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply_pairs, _bierman_prep, _copy_factor, \
     _one_sample, _segment_start, _views
 from ._dims import dim
-from ._rollstats import _rs_add, _rs_begin, _rs_diag, _rs_forget
+from ._rollstats import _rs_begin, _rs_diag, _rs_enter
 from ._scratch import scratch, scratch2, small_scratch
 
 @njit(**NJIT_INLINE)
@@ -96,11 +96,11 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, NP, p):
                 for j in range(p):
                     Th[k, i, j] = theta[i, j]
         if stats:
-            _rs_begin(St, k)
             if ok:
-                _rs_forget(St, k, lam[k], NP, p)
-                _rs_add(St, k, Y[k], wk, e, a, NP, p)
+                _rs_enter(St, k, Y[k], lam[k], wk, e, a, NP, p)
                 _rs_diag(St, k, U, D, NP)
+            else:
+                _rs_begin(St, k)
     _copy_factor(U, D, Us, Ds, NP)
     return bad
 

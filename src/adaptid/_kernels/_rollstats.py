@@ -92,6 +92,14 @@ def _rs_add(St, k, y, wk, e, a, NP, p):
 
 
 @njit(**NJIT_INLINE)
+def _rs_enter(St, k, y, lam, wk, e, a, NP, p):
+    """Row k + 1 = row k forgotten by λ with sample k added."""
+    _rs_begin(St, k)
+    _rs_forget(St, k, lam, NP, p)
+    _rs_add(St, k, y, wk, e, a, NP, p)
+
+
+@njit(**NJIT_INLINE)
 def _rs_remove(St, k, y, wr, cl, er, a, NP, p):
     """The oldest sample leaves: weight wr, forgetting factor cl, residual er, α = a < 0."""
     St[k + 1, 0] -= 1.0

@@ -22,7 +22,7 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _add, _bierman_apply, _d_below, \
     _gain_step, _one_sample, _prep_row, _prior_errors, _segment_start, _views
 from ._dims import dim
-from ._rollstats import _rs_add, _rs_begin, _rs_diag, _rs_direct, _rs_forget, _rs_remove
+from ._rollstats import _rs_begin, _rs_diag, _rs_direct, _rs_enter, _rs_remove
 
 
 @njit(**NJIT_INLINE)
@@ -90,6 +90,7 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p):
     rebuilds = 0
     for k in range(Phi.shape[0]):
         ok = True
+        rebuilt = False
         for i in range(NP):
             if not np.isfinite(Phi[k, i]):
                 ok = False
@@ -117,12 +118,9 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p):
                 a = _bierman_apply(U, D, 1.0 / wk, f, v, b, NP)
                 _gain_step(theta, b, a, e, NP, p)
             if stats:
-                _rs_begin(St, k)
-                _rs_forget(St, k, lk, NP, p)
-                _rs_add(St, k, Y[k], wk, e, a, NP, p)
+                _rs_enter(St, k, Y[k], lk, wk, e, a, NP, p)
             pos = int(meta[1])
             count = int(meta[2])
-            rebuilt = False
             if count == M:
                 c = Bw[pos] * np.exp(L - BL[pos])
                 if c > 0.0:
@@ -137,41 +135,52 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p):
                             e2[j] = s
                         a = _bierman_apply(U, D, -1.0 / c, f, v, b, NP)
                         _gain_step(theta, b, a, e2, NP, p)
-                        if stats:
-                            _rs_remove(St, k, By[pos], Bw[pos], np.exp(L - BL[pos]), e2, a,
-                                       NP, p)
-                elif stats:  # a sample of weight 0 leaves
-                    _rs_remove(St, k, By[pos], 0.0, np.exp(L - BL[pos]), e2, 1.0, NP, p)
-            for i in range(NP):
-                Bphi[pos, i] = Phi[k, i]
-            for j in range(p):
-                By[pos, j] = Y[k, j]
-            Bw[pos] = wk
-            BL[pos] = L
-            pos += 1
-            if pos == M:
-                pos = 0
-            meta[1] = pos
-            if count < M:
-                meta[2] = count + 1
+                if stats and not rebuilt:  # (weight 0 when c = 0)
+                    _rs_remove(St, k, By[pos], Bw[pos] if c > 0.0 else 0.0,
+                               np.exp(L - BL[pos]), e2, a, NP, p)
+            _push(Bphi, By, Bw, BL, meta, Phi, Y, k, wk, L, pos, count, M, NP, p)
             if rebuilt:
                 rebuilds += 1
                 _rebuild_noinline(S, M, NP, p)
-                if stats:
-                    _window_stats_direct(S, St, k + 1, f, M, NP, p)
-            if stats:
-                _rs_diag(St, k, U, D, NP)
         else:
             skipped[k] = True
             for j in range(p):
                 E[k, j] = np.nan
-            if stats:
-                _rs_begin(St, k)
+        if stats:
+            _window_stats_end(S, St, k, ok, rebuilt, U, D, f, M, NP, p)
         if store:
             for i in range(NP):
                 for j in range(p):
                     Th[k, i, j] = theta[i, j]
     return rebuilds
+
+
+@njit(**NJIT_INLINE)
+def _push(Bphi, By, Bw, BL, meta, Phi, Y, k, wk, L, pos, count, M, NP, p):
+    """Sample k into the buffer at ``pos`` (over the sample that left)."""
+    for i in range(NP):
+        Bphi[pos, i] = Phi[k, i]
+    for j in range(p):
+        By[pos, j] = Y[k, j]
+    Bw[pos] = wk
+    BL[pos] = L
+    pos += 1
+    if pos == M:
+        pos = 0
+    meta[1] = pos
+    if count < M:
+        meta[2] = count + 1
+
+
+@njit(**NJIT_INLINE)
+def _window_stats_end(S, St, k, ok, rebuilt, U, D, z, M, NP, p):
+    """Row k + 1 of the statistics after sample k: unchanged if it was skipped,
+    recomputed from the buffer after a re-solve, and diag P."""
+    if not ok:
+        _rs_begin(St, k)
+    elif rebuilt:
+        _window_stats_direct(S, St, k + 1, z, M, NP, p)
+    _rs_diag(St, k, U, D, NP)
 
 
 @njit(**NJIT)

@@ -15,6 +15,8 @@ algorithm (:class:`~adaptid.RLS`, :class:`~adaptid.SlidingWindowRLS`,
 * its state layout (:meth:`_state_length`, :meth:`_fill_initial`,
   :meth:`_check_state`) and what the kernel's return code means
   (``_code_is_rebuilds``),
+* whether it computes windowed statistics (``_supports_stats``; the window
+  sums its own buffer, ``_stats_from_buffer``; see :mod:`._windowstats`),
 * whether its state holds a covariance (``_has_covariance``): the gradient
   estimators (:class:`~adaptid.LMS`, :class:`~adaptid.NLMS`) keep only θ, have
   no prior covariance ``P0``, no ``P``, no ``excitation`` and no windup watch.

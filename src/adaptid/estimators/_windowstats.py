@@ -57,8 +57,25 @@ class WindowStats:
     :math:`\sum_i c_i \ell_i` maximised over σ²). The prior term of ssr and
     the prior in P vanish with a diffuse prior; with ``P0 = 1e12`` and data
     of order 1 they change the statistics in about the 12th digit.
-    Where :math:`n_\mathrm{eff} \le n` the statistics that need degrees of
-    freedom are NaN.
+    Where :math:`n_\mathrm{eff} \le n` (no degrees of freedom) σ̂², the
+    standard errors, t values, R², adjusted R², ℓ, AIC and BIC are NaN.
+    Skipped samples (``nan_policy="skip"``) repeat the previous row.
+
+    ssr is kept recursively (:mod:`adaptid._kernels._rollstats`): adding a
+    sample, :math:`J_k = \lambda_k J_{k-1} + w_k e_k\varepsilon_k` (a-priori
+    and a-posteriori errors; Ljung & Söderström 1983, ch. 2); removing one
+    from the window, :math:`J \leftarrow J - c\,r^2/(1 - c\,\varphi^TP\varphi)`
+    (Sherman–Morrison), recomputed from the buffer when the window is
+    re-solved; ȳ and the centred sum by West's (1979) weighted update and
+    its reverse; diag P from the U-D factors.
+
+    References
+    ----------
+    .. [1] L. Ljung, T. Söderström, *Theory and Practice of Recursive
+       Identification*, MIT Press, 1983.
+    .. [2] D. H. D. West, "Updating mean and variance estimates: an improved
+       method", *Comm. ACM* 22(9), 532–535, 1979.
+    .. [3] statsmodels, ``statsmodels/regression/rolling.py`` (RollingWLS).
 
     Attributes
     ----------
@@ -75,6 +92,18 @@ class WindowStats:
         the ``has_constant`` given to ``run``), else 0.
 
     All arrays carry a leading axis B after ``run_batched``.
+
+    Examples
+    --------
+    >>> import numpy as np, adaptid
+    >>> rng = np.random.default_rng(0)
+    >>> X = np.column_stack([np.ones(100), rng.standard_normal(100)])
+    >>> y = X @ [1.0, 2.0] + 0.1 * rng.standard_normal(100)
+    >>> st = adaptid.SlidingWindowRLS(2, 20, P0=1e12).run(X, y, stats=True).stats
+    >>> st.nobs[[0, 19, 99]].tolist(), st.k_constant
+    ([1, 20, 20], 1)
+    >>> bool(np.isclose(st.sigma2[-1], st.ssr[-1] / (20 - 2)))
+    True
     """
 
     nobs: np.ndarray
