@@ -10,8 +10,8 @@ Entry points share one signature with every other algorithm (see
                  codes, ntag, ptag)
 
 ``opt = [windup threshold]``; ``mat`` and ``Lk`` are unused; ``St`` receives
-the windowed statistics when it has N + 1 rows (:mod:`._rollstats`; 0 rows:
-none); the code is the
+the windowed statistics when it is an array of N + 1 rows (:mod:`._rollstats`;
+``None``: none, chosen at compile time); the code is the
 first sample at which a pivot of D left (0, threshold), or −1. ``ntag`` and
 ``ptag`` give n and p (compile-time constants for tuple tags, :mod:`._dims`).
 Per sample (Ljung & Söderström 1983, eqs. 2.19–2.20, on U-D factors):
@@ -25,7 +25,7 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply_pairs, _bierman_prep, _copy_factor, \
     _one_sample, _segment_start, _views
 from ._dims import dim
-from ._rollstats import _rs_begin, _rs_diag, _rs_enter
+from ._rollstats import rls_hook, sub
 from ._scratch import scratch, scratch2, small_scratch
 
 @njit(**NJIT_INLINE)
@@ -44,7 +44,6 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, NP, p):
     b = small_scratch(NP)
     e = small_scratch(p)
     store = Th.shape[0] == Phi.shape[0]
-    stats = St.shape[0] == Phi.shape[0] + 1
     bad = -1
     for k in range(Phi.shape[0]):
         phi = Phi[k]
@@ -95,12 +94,7 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, NP, p):
             for i in range(NP):
                 for j in range(p):
                     Th[k, i, j] = theta[i, j]
-        if stats:
-            if ok:
-                _rs_enter(St, k, Y[k], lam[k], wk, e, a, NP, p)
-                _rs_diag(St, k, U, D, NP)
-            else:
-                _rs_begin(St, k)
+        rls_hook(St, k, ok, Y, lam, wk, e, a, U, D, NP, p)  # nothing when St is None
     _copy_factor(U, D, Us, Ds, NP)
     return bad
 
@@ -114,8 +108,7 @@ def rls_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
     """
     NP = dim(ntag)
     Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, np.empty((0, 1)), opt[0], NP,
-                      dim(ptag))
+    bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, None, opt[0], NP, dim(ptag))
     if skipped[0]:
         return SKIPPED
     if bad >= 0:
@@ -137,7 +130,7 @@ def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, 
     p = dim(ptag)
     for s in prange(Phi.shape[0]):
         codes[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
-                               St[s], opt[0], NP, p)
+                               sub(St, s), opt[0], NP, p)
 
 
 @njit(**NJIT_PARALLEL)
@@ -146,11 +139,11 @@ def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, 
     """G streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0.
 
     Parallel over segments; segment g is bit for bit :func:`rls_run` from S0.
-    ``St`` (statistics) is not supported here: it must have 0 rows.
+    ``St`` (statistics) is not supported here: it must be None.
     """
     NP = dim(ntag)
     p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
         codes[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                               skipped[a:z], St[0:0], opt[0], NP, p)
+                               skipped[a:z], None, opt[0], NP, p)

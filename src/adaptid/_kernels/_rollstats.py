@@ -1,9 +1,12 @@
 r"""Windowed statistics updated per sample: the arithmetic of ``run(..., stats=True)``.
 
-Inlined into the streams of :mod:`._rls` and :mod:`._window`. The output
-``St`` has N + 1 rows when statistics are asked for (row 0: the
-accumulators before the run, row k + 1: after sample k) and 0 rows when not,
-so the kernels keep one signature; a row is
+Called from the streams of :mod:`._rls` and :mod:`._window` through the
+hooks at the end of this module. The output ``St`` of the common signature
+is an array of N + 1 rows when statistics are asked for (row 0: the
+accumulators before the run, row k + 1: after sample k) and ``None`` when
+not: the hooks are overloaded on its type, so without statistics they
+compile to nothing and the streams run the code they ran before (a run-time
+test of ``St`` cost the n = 4 RLS stream 20 % of its speed). A row is
 
 ``[ count, n_eff, W, Σ c log w, zeros | diag P (n) | J (p) | ȳ (p) | S_yy (p) ]``
 
@@ -39,7 +42,10 @@ When the window is re-solved from its buffer the row is recomputed directly
 
 import numpy as np
 
-from .._config import NJIT_INLINE, njit
+from numba import types
+from numba.extending import overload
+
+from .._config import NJIT, NJIT_INLINE, njit
 
 HEAD = 5  # count, n_eff, W, Σ c log w, zeros
 
@@ -184,3 +190,86 @@ def _rs_direct(St, r, theta, Bphi, By, Bw, BL, L, pos, count, theta0, U0, D0, z,
         St[r, o + j] = J
         St[r, o + p + j] = m
         St[r, o + 2 * p + j] = syy
+
+
+@njit(**NJIT)
+def _rs_direct_call(St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, z, U, D, M, NP, p):
+    _rs_direct(St, r, theta, Bphi, By, Bw, BL, meta[0], int(meta[1]), int(meta[2]), theta0,
+               U0, D0, z, M, NP, p)
+    _rs_diag(St, r - 1, U, D, NP)
+
+
+# --------------------------------------------------------------------------
+# hooks of the streams: the work when St is an array, nothing when it is None
+# (chosen at compile time; the plain functions are what runs without numba)
+# --------------------------------------------------------------------------
+def _no_stats(St):
+    return isinstance(St, types.NoneType)
+
+
+def rls_hook(St, k, ok, Y, lam, wk, e, a, U, D, NP, p):
+    """RLS after sample k: forgotten, sample added (or unchanged when skipped), diag P."""
+    if St is None:
+        return
+    if ok:
+        _rs_enter(St, k, Y[k], lam[k], wk, e, a, NP, p)
+        _rs_diag(St, k, U, D, NP)
+    else:
+        _rs_begin(St, k)
+
+
+def window_enter_hook(St, k, Y, lk, wk, e, a, NP, p):
+    """Window: row k + 1 = row k forgotten, sample k added."""
+    if St is not None:
+        _rs_enter(St, k, Y[k], lk, wk, e, a, NP, p)
+
+
+def window_remove_hook(St, k, rebuilt, By, Bw, BL, pos, L, c, er, a, NP, p):
+    """Window: the sample at ``pos`` left by a downdate (not by a re-solve)."""
+    if St is not None and not rebuilt:
+        _rs_remove(St, k, By[pos], Bw[pos] if c > 0.0 else 0.0, np.exp(L - BL[pos]), er, a,
+                   NP, p)
+
+
+def window_direct_hook(St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, z, U, D, M, NP,
+                       p):
+    """Window: row r recomputed from the buffer (start of a run, after a re-solve)."""
+    if St is not None:
+        _rs_direct_call(St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, z, U, D, M, NP, p)
+
+
+def window_end_hook(St, k, ok, U, D, NP):
+    """Window: row k + 1 unchanged when sample k was skipped; diag P."""
+    if St is None:
+        return
+    if not ok:
+        _rs_begin(St, k)
+    _rs_diag(St, k, U, D, NP)
+
+
+def sub(St, s):
+    """Stream s of a batch: ``St[s]``, or None."""
+    return None if St is None else St[s]
+
+
+def _overload(hook, noop):
+    """In compiled code ``hook`` is ``noop`` when St is None and itself (inlined) otherwise."""
+    @overload(hook, inline="always", strict=False)
+    def _choose(St, *rest):  # called by numba with the argument types
+        return noop if isinstance(St, types.NoneType) else hook
+    return hook
+
+
+_overload(rls_hook, lambda St, k, ok, Y, lam, wk, e, a, U, D, NP, p: None)
+_overload(window_enter_hook, lambda St, k, Y, lk, wk, e, a, NP, p: None)
+_overload(window_remove_hook, lambda St, k, rebuilt, By, Bw, BL, pos, L, c, er, a, NP, p: None)
+_overload(window_direct_hook, lambda St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, z, U,
+          D, M, NP, p: None)
+_overload(window_end_hook, lambda St, k, ok, U, D, NP: None)
+
+
+@overload(sub, inline="always")
+def _sub(St, s):
+    if isinstance(St, types.NoneType):
+        return lambda St, s: None
+    return lambda St, s: St[s]

@@ -7,7 +7,7 @@ The removal is a Bierman update with negative weight −1/c; when
 exactly from its buffer instead.
 
 Entry points as in :mod:`._rls`, with ``opt = [windup threshold, M, rtol]``;
-the code returned is the number of re-solves. With ``St`` of N + 1 rows the
+the code returned is the number of re-solves. With ``St`` an array the
 statistics of the window (:mod:`._rollstats`) are computed directly from the
 buffer before the first sample and after each re-solve, recursively in
 between (``St[0]`` is overwritten). State layout after the U-D
@@ -22,7 +22,8 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _add, _bierman_apply, _d_below, \
     _gain_step, _one_sample, _prep_row, _prior_errors, _segment_start, _views
 from ._dims import dim
-from ._rollstats import _rs_begin, _rs_diag, _rs_direct, _rs_enter, _rs_remove
+from ._rollstats import sub, window_direct_hook, window_end_hook, window_enter_hook, \
+    window_remove_hook
 
 
 @njit(**NJIT_INLINE)
@@ -84,9 +85,8 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p):
     e = np.empty(p)
     e2 = np.empty(p)
     store = Th.shape[0] == Phi.shape[0]
-    stats = St.shape[0] == Phi.shape[0] + 1
-    if stats:
-        _window_stats_direct(S, St, 0, f, M, NP, p)
+    # the statistics hooks (St an array) compile to nothing when St is None
+    window_direct_hook(St, 0, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, f, U, D, M, NP, p)
     rebuilds = 0
     for k in range(Phi.shape[0]):
         ok = True
@@ -117,8 +117,7 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p):
                 _prep_row(U, D, Phi, k, f, v, NP)
                 a = _bierman_apply(U, D, 1.0 / wk, f, v, b, NP)
                 _gain_step(theta, b, a, e, NP, p)
-            if stats:
-                _rs_enter(St, k, Y[k], lk, wk, e, a, NP, p)
+            window_enter_hook(St, k, Y, lk, wk, e, a, NP, p)
             pos = int(meta[1])
             count = int(meta[2])
             if count == M:
@@ -135,19 +134,18 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p):
                             e2[j] = s
                         a = _bierman_apply(U, D, -1.0 / c, f, v, b, NP)
                         _gain_step(theta, b, a, e2, NP, p)
-                if stats and not rebuilt:  # (weight 0 when c = 0)
-                    _rs_remove(St, k, By[pos], Bw[pos] if c > 0.0 else 0.0,
-                               np.exp(L - BL[pos]), e2, a, NP, p)
+                window_remove_hook(St, k, rebuilt, By, Bw, BL, pos, L, c, e2, a, NP, p)
             _push(Bphi, By, Bw, BL, meta, Phi, Y, k, wk, L, pos, count, M, NP, p)
             if rebuilt:
                 rebuilds += 1
                 _rebuild_noinline(S, M, NP, p)
+                window_direct_hook(St, k + 1, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, f,
+                                   U, D, M, NP, p)
         else:
             skipped[k] = True
             for j in range(p):
                 E[k, j] = np.nan
-        if stats:
-            _window_stats_end(S, St, k, ok, rebuilt, U, D, f, M, NP, p)
+        window_end_hook(St, k, ok, U, D, NP)
         if store:
             for i in range(NP):
                 for j in range(p):
@@ -172,25 +170,6 @@ def _push(Bphi, By, Bw, BL, meta, Phi, Y, k, wk, L, pos, count, M, NP, p):
         meta[2] = count + 1
 
 
-@njit(**NJIT_INLINE)
-def _window_stats_end(S, St, k, ok, rebuilt, U, D, z, M, NP, p):
-    """Row k + 1 of the statistics after sample k: unchanged if it was skipped,
-    recomputed from the buffer after a re-solve, and diag P."""
-    if not ok:
-        _rs_begin(St, k)
-    elif rebuilt:
-        _window_stats_direct(S, St, k + 1, z, M, NP, p)
-    _rs_diag(St, k, U, D, NP)
-
-
-@njit(**NJIT)
-def _window_stats_direct(S, St, r, z, M, NP, p):
-    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
-    _rs_direct(St, r, theta, Bphi, By, Bw, BL, meta[0], int(meta[1]), int(meta[2]), theta0,
-               U0, D0, z, M, NP, p)
-    _rs_diag(St, r - 1, U, D, NP)
-
-
 @njit(**NJIT)
 def _rebuild_noinline(S, M, NP, p):
     theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
@@ -209,8 +188,7 @@ def window_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
     p = dim(ptag)
     M = int(opt[1])
     Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, np.empty((0, 1)), M,
-                              opt[2], NP, p)
+    reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, None, M, opt[2], NP, p)
     if skipped[0]:
         return SKIPPED
     status = 0
@@ -235,7 +213,7 @@ def window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, code
     M = int(opt[1])
     for s in prange(Phi.shape[0]):
         codes[s] = _window_stream_flat(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                       skipped[s], St[s], M, opt[2], NP, p)
+                                       skipped[s], sub(St, s), M, opt[2], NP, p)
 
 
 @njit(**NJIT_PARALLEL)
@@ -248,4 +226,4 @@ def window_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, S
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
         codes[g] = _window_stream_flat(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z],
-                                       E[a:z], skipped[a:z], St[0:0], M, opt[2], NP, p)
+                                       E[a:z], skipped[a:z], None, M, opt[2], NP, p)

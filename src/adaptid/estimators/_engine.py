@@ -640,8 +640,8 @@ class RecursiveEstimator:
         lam = self._lam_run(None, Phi.shape[:1])
         Lk = np.empty(N if self._reports else 0)
         status = np.empty(G, dtype=np.int64)
-        self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk,
-                                np.empty((0, 1)), self._opt,
+        self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, None,
+                                self._opt,
                                 self._mat, status, self._ntag, self._ptag)
         n_skip = np.empty(G, dtype=np.int64)
         sse = np.empty((G, E.shape[1]))

@@ -191,11 +191,11 @@ def check_stats(est, stats, has_constant) -> bool:
 
 
 def stats_rows(est, shape_N, want):
-    """The kernels' ``St``: (..., N + 1, K) with row 0 the sums so far, or (..., 0, 1)."""
+    """The kernels' ``St``: (..., N + 1, K) with row 0 the sums so far, or None."""
     from .._kernels._rollstats import width
     lead = shape_N[:-1]
     if not want:
-        return np.empty(lead + (0, 1))
+        return None  # the kernels' statistics hooks then compile to nothing
     St = np.zeros(lead + (shape_N[-1] + 1, width(est.n_params, est.n_outputs)))
     if est._stats_from_buffer or est.n_updates == 0:
         return St  # the window's kernel sums its buffer; RLS from the prior: all zero
