@@ -7,7 +7,8 @@
   common signature (``update``, ``run``, ``run_batched``, ``run_segments``);
 * :mod:`._rollstats` — the windowed statistics of ``run(..., stats=True)``,
   inlined into the RLS and window streams (output ``St`` of the common
-  signature: N + 1 rows when asked for, 0 rows when not);
+  signature: an array of N + 1 rows when asked for, None when not, chosen at
+  compile time);
 * :mod:`._dims` — the tags that make n and p compile-time constants
   (specialisation per n without generating source), :mod:`._scratch` —
   stack-allocated work arrays.

@@ -203,10 +203,6 @@ def _rs_direct_call(St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, z, U, 
 # hooks of the streams: the work when St is an array, nothing when it is None
 # (chosen at compile time; the plain functions are what runs without numba)
 # --------------------------------------------------------------------------
-def _no_stats(St):
-    return isinstance(St, types.NoneType)
-
-
 def rls_hook(St, k, ok, Y, lam, wk, e, a, U, D, NP, p):
     """RLS after sample k: forgotten, sample added (or unchanged when skipped), diag P."""
     if St is None:

@@ -3,7 +3,7 @@ r"""Per-sample statistics of the current window: ``run(..., stats=True)``.
 The compiled streams (:mod:`adaptid._kernels._rollstats`) keep, per sample,
 the sums of the data in the cost; this module turns them into the
 statistics of :class:`WindowStats`, with the one σ̂² rule of
-:func:`adaptid.recursive_fit_stats` (:func:`._stats.sigma2_rule`).
+:func:`adaptid.recursive_fit_stats` (:func:`._sigma2.sigma2_rule`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._kernels._rollstats import HEAD
-from ._stats import sigma2_rule
+from ._sigma2 import sigma2_rule
 
 __all__ = ["WindowStats", "detect_constant", "window_stats"]
 
