@@ -40,6 +40,7 @@ _LAZY = {
     "LMS": "adaptid.estimators",
     "NLMS": "adaptid.estimators",
     "Trajectory": "adaptid.estimators",
+    "WindowStats": "adaptid.estimators",
     "estimator": "adaptid.estimators",
     "recursive_fit_stats": "adaptid.estimators",
     "IDData": "adaptid.models",

@@ -8,6 +8,10 @@
 * :mod:`._diffuse`, :mod:`._diffuse_kalman` — the exact diffuse start
   (``P0="diffuse"``) of RLS, the window and the Kalman filter, a prologue
   before the ordinary streams, with the same four entry points;
+* :mod:`._rollstats` — the windowed statistics of ``run(..., stats=True)``,
+  inlined into the RLS and window streams (output ``St`` of the common
+  signature: an array of N + 1 rows when asked for, None when not, chosen at
+  compile time);
 * :mod:`._dims` — the tags that make n and p compile-time constants
   (specialisation per n without generating source), :mod:`._scratch` —
   stack-allocated work arrays.

@@ -205,7 +205,7 @@ def _rls_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, dthr, rcond, NP, 
     if k == N:
         return -1
     bad = _rls_stream(S, Phi[k:], Y[k:], lam[k:], w[k:], _rest(Th, k, N), E[k:],
-                      skipped[k:], dthr, NP, p)
+                      skipped[k:], None, dthr, NP, p)
     return bad + k if bad >= 0 else -1
 
 
@@ -222,14 +222,15 @@ def rls_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def rls_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def rls_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N steps of diffuse RLS; ``opt = [windup threshold, rcond]``; code as :func:`._rls.rls_run`."""
     return _rls_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt[0], opt[1],
                                dim(ntag), dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)
-def rls_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+def rls_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
+                            ptag):
     NP = dim(ntag)
     p = dim(ptag)
     for s in prange(Phi.shape[0]):
@@ -238,7 +239,7 @@ def rls_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, cod
 
 
 @njit(**NJIT_PARALLEL)
-def rls_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat,
+def rls_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
                              codes, ntag, ptag):
     NP = dim(ntag)
     p = dim(ptag)
@@ -313,7 +314,7 @@ def _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, M, rtol, rcond
         else:
             S[flag + 1] = -1.0  # set by the stream if a removal needs a re-solve
             rebuilds += _window_stream_flat(S, Phi[k:], Y[k:], lam[k:], w[k:], _rest(Th, k, N),
-                                            E[k:], skipped[k:], M, rtol, NP, p, True)
+                                            E[k:], skipped[k:], None, M, rtol, NP, p, True)
             j = N - 1 if S[flag + 1] < 0.0 else k + int(S[flag + 1]) - 1
             for i in range(k, j):
                 Lk[i] = 1.0
@@ -339,14 +340,14 @@ def window_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def window_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def window_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N steps of the diffuse window; ``opt = [windup, M, rtol, rcond]``; returns re-solves."""
     return _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, int(opt[1]), opt[2],
                                   opt[3], dim(ntag), dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)
-def window_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag,
+def window_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
                                ptag):
     NP = dim(ntag)
     p = dim(ptag)
@@ -356,8 +357,8 @@ def window_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, 
 
 
 @njit(**NJIT_PARALLEL)
-def window_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat,
-                                codes, ntag, ptag):
+def window_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt,
+                                mat, codes, ntag, ptag):
     NP = dim(ntag)
     p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):

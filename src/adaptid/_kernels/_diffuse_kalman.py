@@ -138,14 +138,14 @@ def kalman_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def kalman_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def kalman_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N steps of the diffuse Kalman filter; code as :func:`._kalman.kalman_run`."""
     return _kalman_diffuse_stream(S, Phi, Y, w, Th, E, skipped, Lk, opt, mat, dim(ntag),
                                   dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)
-def kalman_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag,
+def kalman_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
                                ptag):
     NP = dim(ntag)
     p = dim(ptag)
@@ -155,8 +155,8 @@ def kalman_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, 
 
 
 @njit(**NJIT_PARALLEL)
-def kalman_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat,
-                                codes, ntag, ptag):
+def kalman_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt,
+                                mat, codes, ntag, ptag):
     NP = dim(ntag)
     p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):

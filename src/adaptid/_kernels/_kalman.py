@@ -1,7 +1,7 @@
 r"""Kalman filter for a random-walk parameter, on U-D factors.
 
 Entry points as in :mod:`._rls`, with ``opt = [windup threshold, R₂,
-skip]`` and ``mat = R₁`` (n × n); ``lam`` and ``Lk`` are unused. Per sample
+skip]`` and ``mat = R₁`` (n × n); ``lam``, ``Lk`` and ``St`` are unused. Per sample
 (Ljung & Söderström 1983, eq. 2.114): the measurement update (Bierman, weight
 R₂/w), then the time update ``U D Uᵀ + R₁`` re-factorised. A non-finite
 sample gets the time update only when ``skip`` is set (``nan_policy="skip"``)
@@ -73,14 +73,14 @@ def kalman_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def kalman_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def kalman_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N Kalman steps; returns the first sample at which P lost definiteness or
     a pivot passed the windup threshold, or -1."""
     return _kalman_stream(S, Phi, Y, w, Th, E, skipped, opt, mat, dim(ntag), dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)
-def kalman_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+def kalman_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     NP = dim(ntag)
     p = dim(ptag)
     for s in prange(Phi.shape[0]):
@@ -89,7 +89,7 @@ def kalman_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, n
 
 
 @njit(**NJIT_PARALLEL)
-def kalman_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat, codes,
+def kalman_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat, codes,
                         ntag, ptag):
     """G Kalman streams back to back, each from S0 (see :func:`._rls.rls_run_segments`)."""
     NP = dim(ntag)

@@ -4,16 +4,16 @@ Entry points share one signature with every other algorithm (see
 :mod:`adaptid._kernels._rls`)::
 
     update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag) -> status bits
-    run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag) -> code
-    run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag)
-    run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat,
+    run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag) -> code
+    run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag)
+    run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
                  codes, ntag, ptag)
 
 with the prefix ``lms_`` (LMS) and ``nlms_`` (NLMS): the normalisation is a
 compile-time constant of each set (a run-time flag cost NLMS ~15 % at n = 8).
 State ``S = [ theta (n·p, row-major (n, p)) ]``: no covariance.
 ``opt = [windup threshold (unused), step μ, bias ε]``;
-``lam``, ``mat`` and ``Lk`` are unused (no forgetting). The code is the first
+``lam``, ``mat``, ``Lk`` and ``St`` are unused (no forgetting). The code is the first
 sample after which θ is no longer finite (the gradient diverged: step too
 large: the first sample whose a-priori error is not finite, or the last
 sample if only the final θ is not), or −1. Per sample (MATLAB ``recursiveLS``, EstimationMethod
@@ -152,13 +152,13 @@ def lms_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def lms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def lms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N LMS steps; returns the first sample whose error is not finite (divergence), or -1."""
     return _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, dim(ntag), dim(ptag), False)
 
 
 @njit(**NJIT_PARALLEL)
-def lms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+def lms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     """B independent LMS streams in parallel; ``codes[b]`` as :func:`lms_run` returns."""
     NP = dim(ntag)
     p = dim(ptag)
@@ -168,7 +168,7 @@ def lms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag
 
 
 @njit(**NJIT_PARALLEL)
-def lms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat, codes,
+def lms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat, codes,
                      ntag, ptag):
     """G LMS streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0;
     parallel over segments, segment g bit for bit :func:`lms_run` from S0."""
@@ -188,13 +188,13 @@ def nlms_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def nlms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def nlms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N NLMS steps; returns as :func:`lms_run`."""
     return _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, dim(ntag), dim(ptag), True)
 
 
 @njit(**NJIT_PARALLEL)
-def nlms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+def nlms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     """B independent NLMS streams in parallel."""
     NP = dim(ntag)
     p = dim(ptag)
@@ -204,7 +204,7 @@ def nlms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, nta
 
 
 @njit(**NJIT_PARALLEL)
-def nlms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat, codes,
+def nlms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat, codes,
                       ntag, ptag):
     """G NLMS streams stored back to back, each from S0 (see :func:`lms_run_segments`)."""
     NP = dim(ntag)

@@ -4,12 +4,14 @@ Entry points share one signature with every other algorithm (see
 :mod:`adaptid.estimators._engine`)::
 
     update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag) -> status bits
-    run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag) -> code
-    run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag)
-    run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat,
+    run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag) -> code
+    run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag)
+    run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
                  codes, ntag, ptag)
 
-``opt = [windup threshold]``; ``mat`` and ``Lk`` are unused; the code is the
+``opt = [windup threshold]``; ``mat`` and ``Lk`` are unused; ``St`` receives
+the windowed statistics when it is an array of N + 1 rows (:mod:`._rollstats`;
+``None``: none, chosen at compile time); the code is the
 first sample at which a pivot of D left (0, threshold), or −1. ``ntag`` and
 ``ptag`` give n and p (compile-time constants for tuple tags, :mod:`._dims`).
 Per sample (Ljung & Söderström 1983, eqs. 2.19–2.20, on U-D factors):
@@ -23,10 +25,11 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply_pairs, _bierman_prep, _copy_factor, \
     _one_sample, _segment_start, _views
 from ._dims import dim
+from ._rollstats import rls_hook, sub
 from ._scratch import scratch, scratch2, small_scratch
 
 @njit(**NJIT_INLINE)
-def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
+def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, NP, p):
     # Written flat, with every branch at the top of the loop body: a branch
     # around the unrolled update (e.g. `if w > 0`) made LLVM spill the state
     # and the loop ran 4 x slower (measured at n = 4). The factor is worked
@@ -51,6 +54,7 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
             ok &= Y[k, j] - Y[k, j] == 0.0
         wk = w[k]
         inside = True  # pivots in (0, dthr)
+        a = 1.0
         if ok and wk > 0.0:
             for j in range(p):
                 s = Y[k, j]
@@ -90,6 +94,7 @@ def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
             for i in range(NP):
                 for j in range(p):
                     Th[k, i, j] = theta[i, j]
+        rls_hook(St, k, ok, Y, lam, wk, e, a, U, D, NP, p)  # nothing when St is None
     _copy_factor(U, D, Us, Ds, NP)
     return bad
 
@@ -103,7 +108,7 @@ def rls_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
     """
     NP = dim(ntag)
     Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, opt[0], NP, dim(ptag))
+    bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, None, opt[0], NP, dim(ptag))
     if skipped[0]:
         return SKIPPED
     if bad >= 0:
@@ -112,32 +117,33 @@ def rls_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def rls_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def rls_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N RLS steps; returns the first sample index where a pivot D_i lost
     positivity or passed the windup threshold ``opt[0]``, or -1."""
-    return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, opt[0], dim(ntag), dim(ptag))
+    return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, St, opt[0], dim(ntag), dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)
-def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     """B independent RLS streams in parallel; ``codes[b]`` as :func:`rls_run` returns."""
     NP = dim(ntag)
     p = dim(ptag)
     for s in prange(Phi.shape[0]):
         codes[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
-                               opt[0], NP, p)
+                               sub(St, s), opt[0], NP, p)
 
 
 @njit(**NJIT_PARALLEL)
-def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat, codes,
-                     ntag, ptag):
+def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
+                     codes, ntag, ptag):
     """G streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0.
 
     Parallel over segments; segment g is bit for bit :func:`rls_run` from S0.
+    ``St`` (statistics) is not supported here: it must be None.
     """
     NP = dim(ntag)
     p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
         codes[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                               skipped[a:z], opt[0], NP, p)
+                               skipped[a:z], None, opt[0], NP, p)

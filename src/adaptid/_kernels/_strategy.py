@@ -3,7 +3,8 @@ r"""RLS with a forgetting strategy of :mod:`adaptid.forgetting`, or ``P_max``.
 Entry points as in :mod:`._rls`, with ``opt = [windup threshold, mode,
 P_max]`` (mode: 0 exponential with λₖ given, 1 directional, 2 constant trace,
 3 EFRA, 4 variable; P_max = inf: none), ``mat[0]`` the strategy's parameters
-and ``Lk`` the λₖ applied at each sample (NaN where skipped).
+and ``Lk`` the λₖ applied at each sample (NaN where skipped); ``St`` is unused
+(no windowed statistics under a strategy).
 """
 
 import numpy as np
@@ -174,20 +175,20 @@ def strategy_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def strategy_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def strategy_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N RLS steps with a forgetting strategy; returns as :func:`adaptid._kernels._rls.rls_run`."""
     return _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
-def strategy_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+def strategy_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     for s in prange(Phi.shape[0]):
         codes[s] = _rls_strategy_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
                                         skipped[s], Lk[s], opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
-def strategy_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat,
+def strategy_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
                           codes, ntag, ptag):
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)

@@ -7,7 +7,10 @@ The removal is a Bierman update with negative weight −1/c; when
 exactly from its buffer instead.
 
 Entry points as in :mod:`._rls`, with ``opt = [windup threshold, M, rtol]``;
-the code returned is the number of re-solves. State layout after the U-D
+the code returned is the number of re-solves. With ``St`` an array the
+statistics of the window (:mod:`._rollstats`) are computed directly from the
+buffer before the first sample and after each re-solve, recursively in
+between (``St[0]`` is overwritten). State layout after the U-D
 part: ``[ L, pos, count | Φ buffer (M·n) | Y buffer (M·p) | weights (M) |
 log-λ sums (M) | theta0 (n·p) | U0 (n·n) | D0 (n) ]``, and with ``P0="diffuse"``
 a tail ``[flag, stop]`` (:mod:`._diffuse`): the stream is then called with
@@ -23,6 +26,8 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _add, _bierman_apply, _d_below, \
     _gain_step, _one_sample, _prep_row, _prior_errors, _segment_start, _views
 from ._dims import dim
+from ._rollstats import sub, window_direct_hook, window_end_hook, window_enter_hook, \
+    window_remove_hook
 
 
 @njit(**NJIT_INLINE)
@@ -76,7 +81,7 @@ def _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
 # The window's stream is written flat (no per-step array views, branches at
 # the top of the loop body): 1.5-2x faster than composing the helpers above.
 @njit(**NJIT_INLINE)
-def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, p, diffuse=False):
+def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p, diffuse=False):
     theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
     f = np.empty(NP)
     v = np.empty(NP)
@@ -84,9 +89,12 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, p, diffu
     e = np.empty(p)
     e2 = np.empty(p)
     store = Th.shape[0] == Phi.shape[0]
+    # the statistics hooks (St an array) compile to nothing when St is None
+    window_direct_hook(St, 0, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, f, U, D, M, NP, p)
     rebuilds = 0
     for k in range(Phi.shape[0]):
         ok = True
+        rebuilt = False
         for i in range(NP):
             if not np.isfinite(Phi[k, i]):
                 ok = False
@@ -108,13 +116,14 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, p, diffu
                     D[i] *= il
             L = meta[0] + np.log(lk)
             meta[0] = L
+            a = 1.0
             if wk > 0.0:
                 _prep_row(U, D, Phi, k, f, v, NP)
                 a = _bierman_apply(U, D, 1.0 / wk, f, v, b, NP)
                 _gain_step(theta, b, a, e, NP, p)
+            window_enter_hook(St, k, Y, lk, wk, e, a, NP, p)
             pos = int(meta[1])
             count = int(meta[2])
-            rebuilt = False
             if count == M:
                 c = Bw[pos] * np.exp(L - BL[pos])
                 if c > 0.0:
@@ -129,33 +138,43 @@ def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, M, rtol, NP, p, diffu
                             e2[j] = s
                         a = _bierman_apply(U, D, -1.0 / c, f, v, b, NP)
                         _gain_step(theta, b, a, e2, NP, p)
-            for i in range(NP):
-                Bphi[pos, i] = Phi[k, i]
-            for j in range(p):
-                By[pos, j] = Y[k, j]
-            Bw[pos] = wk
-            BL[pos] = L
-            pos += 1
-            if pos == M:
-                pos = 0
-            meta[1] = pos
-            if count < M:
-                meta[2] = count + 1
+                window_remove_hook(St, k, rebuilt, By, Bw, BL, pos, L, c, e2, a, NP, p)
+            _push(Bphi, By, Bw, BL, meta, Phi, Y, k, wk, L, pos, count, M, NP, p)
             if rebuilt:
                 rebuilds += 1
                 if diffuse:  # no prior: _diffuse re-solves (samples used so far in S[-1])
                     S[S.shape[0] - 1] = k + 1
                     return rebuilds
                 _rebuild_noinline(S, M, NP, p)
+                window_direct_hook(St, k + 1, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, f,
+                                   U, D, M, NP, p)
         else:
             skipped[k] = True
             for j in range(p):
                 E[k, j] = np.nan
+        window_end_hook(St, k, ok, U, D, NP)
         if store:
             for i in range(NP):
                 for j in range(p):
                     Th[k, i, j] = theta[i, j]
     return rebuilds
+
+
+@njit(**NJIT_INLINE)
+def _push(Bphi, By, Bw, BL, meta, Phi, Y, k, wk, L, pos, count, M, NP, p):
+    """Sample k into the buffer at ``pos`` (over the sample that left)."""
+    for i in range(NP):
+        Bphi[pos, i] = Phi[k, i]
+    for j in range(p):
+        By[pos, j] = Y[k, j]
+    Bw[pos] = wk
+    BL[pos] = L
+    pos += 1
+    if pos == M:
+        pos = 0
+    meta[1] = pos
+    if count < M:
+        meta[2] = count + 1
 
 
 @njit(**NJIT)
@@ -176,7 +195,7 @@ def window_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
     p = dim(ptag)
     M = int(opt[1])
     Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, M, opt[2], NP, p)
+    reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, None, M, opt[2], NP, p)
     if skipped[0]:
         return SKIPPED
     status = 0
@@ -188,25 +207,25 @@ def window_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 
 
 @njit(**NJIT)
-def window_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
+def window_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N TLSM steps; returns the number of removals replaced by a re-solve."""
-    return _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, int(opt[1]), opt[2],
+    return _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, int(opt[1]), opt[2],
                                dim(ntag), dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)
-def window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag, ptag):
+def window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     NP = dim(ntag)
     p = dim(ptag)
     M = int(opt[1])
     for s in prange(Phi.shape[0]):
         codes[s] = _window_stream_flat(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                       skipped[s], M, opt[2], NP, p)
+                                       skipped[s], sub(St, s), M, opt[2], NP, p)
 
 
 @njit(**NJIT_PARALLEL)
-def window_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, opt, mat, codes,
-                        ntag, ptag):
+def window_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
+                        codes, ntag, ptag):
     """G sliding-window streams back to back, each from S0 (see :func:`._rls.rls_run_segments`)."""
     NP = dim(ntag)
     p = dim(ptag)
@@ -214,4 +233,4 @@ def window_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, o
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
         codes[g] = _window_stream_flat(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z],
-                                       E[a:z], skipped[a:z], M, opt[2], NP, p)
+                                       E[a:z], skipped[a:z], None, M, opt[2], NP, p)

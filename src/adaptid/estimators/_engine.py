@@ -15,6 +15,8 @@ algorithm (:class:`~adaptid.RLS`, :class:`~adaptid.SlidingWindowRLS`,
 * its state layout (:meth:`_state_length`, :meth:`_fill_initial`,
   :meth:`_check_state`) and what the kernel's return code means
   (``_code_is_rebuilds``),
+* whether it computes windowed statistics (``_supports_stats``; the window
+  sums its own buffer, ``_stats_from_buffer``; see :mod:`._windowstats`),
 * whether its state holds a covariance (``_has_covariance``): the gradient
   estimators (:class:`~adaptid.LMS`, :class:`~adaptid.NLMS`) keep only θ, have
   no prior covariance ``P0``, no ``P``, no ``excitation`` and no windup watch.
@@ -42,6 +44,7 @@ from ._factor import P_from_ud, ud_from_P
 from ._hooks import upward as _upward
 from ._statefile import FORMAT
 from ._trajectory import Trajectory
+from ._windowstats import check_stats, finish_stats, stats_rows
 
 __all__ = ["RecursiveEstimator"]
 
@@ -104,7 +107,7 @@ class _StepArrays:
         self.skipped = np.zeros(1, dtype=np.bool_)
         self.Lk = np.empty(1 if reports else 0)
         self.reports = reports
-        self.args = (None,) * 13  # the kernel's arguments, rebuilt when S or the options change
+        self.args = (None,) * 14  # the kernel's arguments, rebuilt when S or the options change
 
 
 def _strided(arr):
@@ -135,6 +138,10 @@ class RecursiveEstimator:
     _reports_forgetting = False
     #: the state holds the U-D factors of a covariance P after θ (False: θ only)
     _has_covariance = True
+    #: run(..., stats=True) is supported (see estimators/_windowstats.py)
+    _supports_stats = False
+    #: the kernel sums its own buffer for the statistics (else they continue row 0)
+    _stats_from_buffer = False
 
     def __init__(self, n_params, *, theta0=None, P0=1e4, nan_policy="raise",
                  n_outputs=None, windup_threshold=None):
@@ -293,6 +300,7 @@ class RecursiveEstimator:
         self.n_updates = 0
         self.n_skipped = 0
         self._windup_warned = False
+        self._stats_acc = None
         return self
 
     def _theta_view(self, S):
@@ -584,8 +592,8 @@ class RecursiveEstimator:
         if w != a.w_now:
             a.lw[1] = a.w_now = w
         args = a.args
-        if args[0] is not self._S or args[9] is not self._opt or args[10] is not self._mat:
-            args = a.args = (self._S, a.Phi, a.Y, a.lam, a.w, a.Th, a.E, a.skipped, a.Lk,
+        if args[0] is not self._S or args[10] is not self._opt or args[11] is not self._mat:
+            args = a.args = (self._S, a.Phi, a.Y, a.lam, a.w, a.Th, a.E, a.skipped, a.Lk, None,
                              self._opt, self._mat, self._ntag, self._ptag)
         # One step is a run of length 1 through the compiled ``run`` numba already has for
         # these argument types (those run() passes): nothing more to compile, and bit for
@@ -634,7 +642,8 @@ class RecursiveEstimator:
             self._warn_nonpositive(self.n_updates)
         return float(self._e[0]) if self._single else self._e.copy()
 
-    def run(self, Phi, y, *, weights=None, forgetting=None, store=True):
+    def run(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
+            has_constant=None):
         r"""Process N samples in one compiled loop.
 
         Parameters
@@ -648,6 +657,17 @@ class RecursiveEstimator:
             sliding window only).
         store : bool
             Keep the per-sample θ (``Trajectory.theta``); False saves memory.
+        stats : bool
+            Also compute, in the same compiled loop, the statistics of the
+            data in the cost after every sample (the window, or all samples
+            so far under forgetting): ``Trajectory.stats``, a
+            :class:`~adaptid.WindowStats` (statsmodels ``RollingOLS`` /
+            ``RollingWLS``). :class:`SlidingWindowRLS`, and :class:`RLS` with
+            exponential forgetting; an RLS must have run all its samples
+            since the prior with ``stats=True``.
+        has_constant : bool, optional
+            With ``stats``: whether the regressors hold a constant (centred
+            R²); default: detected from Φ as statsmodels does.
 
         Returns
         -------
@@ -656,21 +676,26 @@ class RecursiveEstimator:
         """
         self._check_single("run")
         labels = _labels(Phi, y)
+        want = check_stats(self, stats, has_constant)
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
         lam = self._lam_run(forgetting, Phi.shape[:1])
-        Th, E, skipped = self._alloc(Phi.shape[:1], store)
+        Th, E, skipped = self._alloc(Phi.shape[:1], store or want)
         Lk = np.empty(Phi.shape[0] if self._reports or self._diffuse else 0)
+        St = stats_rows(self, Phi.shape[:1], want)
         backup = self._backup()
-        code = self._kern.run(self._S, Phi, Y, lam, w, Th, E, skipped, Lk, self._opt,
+        code = self._kern.run(self._S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt,
                               self._mat, self._ntag, self._ptag)
         self._raise_if_skipped(skipped, Phi, Y, backup)
         self._count(skipped)
         self._report_codes(code, None)
+        if want:
+            labels["stats"] = finish_stats(self, St, Th, Phi, has_constant)
         traj = self._finish(Th, E, skipped, store, code if self._code_is_rebuilds else 0,
                             Lk if self._reports else None, Lk)
         return _dataclass_replace(traj, **labels) if labels else traj
 
-    def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True):
+    def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
+                    has_constant=None):
         r"""Run B independent streams in one compiled, parallel call.
 
         Parameters
@@ -678,6 +703,9 @@ class RecursiveEstimator:
         Phi : array_like, shape (B, N, n)
         y : array_like, shape (B, N) or (B, N, p)
         weights, forgetting : float or array broadcastable to (B, N), optional
+        stats, has_constant
+            As for :meth:`run` (the statistics with a leading axis B; the
+            constant is detected over all streams).
 
         Returns
         -------
@@ -686,24 +714,28 @@ class RecursiveEstimator:
             ``P`` carry the leading axis B; each stream started from this
             estimator's state (or continues it, if already batched).
         """
+        want = check_stats(self, stats, has_constant)
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True, precheck=False)
         shape_N = Phi.shape[:2]
         lam = self._lam_run(forgetting, shape_N)
+        St = stats_rows(self, shape_N, want)
         S = self._prepare_batch(shape_N[0])
-        Th, E, skipped = self._alloc(shape_N, store)
+        Th, E, skipped = self._alloc(shape_N, store or want)
         Lk = np.empty(shape_N if self._reports or self._diffuse else (shape_N[0], 0))
         codes = np.empty(shape_N[0], dtype=np.int64)
-        self._kern.run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, self._opt, self._mat,
+        self._kern.run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt, self._mat,
                                codes, self._ntag, self._ptag)
         self._raise_if_skipped(skipped, Phi, Y, None)  # S is a copy: nothing to restore
         self._S, self._batch = S, shape_N[0]
         self._count(skipped)
         self._report_codes(codes, "stream")
-        return self._finish(Th, E, skipped, store,
+        ws = finish_stats(self, St, Th, Phi, has_constant) if want else None
+        traj = self._finish(Th, E, skipped, store,
                             codes.sum() if self._code_is_rebuilds else 0,
                             Lk if self._reports else None, Lk)
+        return _dataclass_replace(traj, stats=ws) if want else traj
 
-    def run_segments(self, Phi, y, offsets, *, weights=None, store=False):
+    def run_segments(self, Phi, y, offsets, *, weights=None, store=False, stats=False):
         r"""Run G independent streams stored back to back, in one compiled, parallel call.
 
         Segment g is rows ``offsets[g]:offsets[g+1]`` of ``Phi`` and ``y``
@@ -722,6 +754,9 @@ class RecursiveEstimator:
         weights : float or array_like, shape (N_total,), optional
         store : bool
             Also return the per-sample estimates (``theta_track``).
+        stats : bool
+            Not supported here (ValueError if True): use :meth:`run` per
+            segment or :meth:`run_batched` for windowed statistics.
 
         Returns
         -------
@@ -730,6 +765,9 @@ class RecursiveEstimator:
             segment, and the per-sample errors.
         """
         from ._segments import SegmentResult, check_offsets, segment_stats
+        if stats is not False:
+            raise param_error("stats", "False for run_segments (windowed statistics: run or "
+                              "run_batched)", stats)
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
         N = Phi.shape[0]
         off = check_offsets(offsets, N)
@@ -741,7 +779,8 @@ class RecursiveEstimator:
         lam = self._lam_run(None, Phi.shape[:1])
         Lk = np.empty(N if self._reports or self._diffuse else 0)
         status = np.empty(G, dtype=np.int64)
-        self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, self._opt,
+        self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, None,
+                                self._opt,
                                 self._mat, status, self._ntag, self._ptag)
         n_skip = np.empty(G, dtype=np.int64)
         sse = np.empty((G, E.shape[1]))
@@ -877,6 +916,7 @@ class RecursiveEstimator:
         self._check_state(S.reshape(-1, S.shape[-1]))
         self._S = S
         self._batch = batch
+        self._stats_acc = None
         self.n_updates = int(n_updates)
         self.n_skipped = int(n_skipped)
 

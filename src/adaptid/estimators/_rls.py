@@ -167,6 +167,10 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
     def _reports_forgetting(self):
         return not self._fast
 
+    @property
+    def _supports_stats(self):
+        return self._fast
+
     def _entries(self):
         if self._diffuse:
             return _kernels.RLS_DIFFUSE

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import as_float_array, param_error
+from ._sigma2 import sigma2_rule
 
-__all__ = ["RecursiveFitStats", "recursive_fit_stats", "sample_factors"]
+__all__ = ["RecursiveFitStats", "recursive_fit_stats", "sample_factors", "sigma2_rule"]
 
 
 @dataclass(frozen=True)
@@ -115,12 +116,12 @@ def recursive_fit_stats(est, Phi, y, *, weights=None, forgetting=None, used=None
         ssr = float(np.sum(c * w * r * r))
     n_eff = float(np.sum(c))
     dof = n_eff - n
-    sigma2 = ssr / dof if dof > 0 else float("nan")
     if not type(est)._has_covariance:  # LMS / NLMS: no P, no standard errors
+        sigma2 = ssr / dof if dof > 0 else float("nan")
         return RecursiveFitStats(sigma2=sigma2, stderr=np.full(n, np.nan), dof=dof,
                                  n_eff=n_eff, ssr=ssr)
     r2 = float(getattr(est, "noise_var", 1.0))
-    diag = np.clip(np.diagonal(np.asarray(est.P)), 0.0, None)
-    with np.errstate(invalid="ignore", over="ignore"):
-        stderr = np.sqrt(diag * (sigma2 / r2))
-    return RecursiveFitStats(sigma2=sigma2, stderr=stderr, dof=dof, n_eff=n_eff, ssr=ssr)
+    sigma2, stderr = sigma2_rule(np.array([ssr]), np.float64(n_eff), n,
+                                 np.diagonal(np.asarray(est.P)), r2)
+    return RecursiveFitStats(sigma2=float(sigma2[0]), stderr=stderr[:, 0], dof=dof,
+                             n_eff=n_eff, ssr=ssr)

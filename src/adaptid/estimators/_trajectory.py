@@ -49,6 +49,9 @@ class Trajectory:
         least-squares solution (the diffuse Kalman filter's estimate for
         :class:`~adaptid.KalmanRLS`). A skipped sample keeps the previous
         value. None for estimators with a finite prior ``P0``.
+    stats : WindowStats or None
+        The per-sample statistics of the window (``run(..., stats=True)``);
+        None when not asked for.
     """
 
     theta: np.ndarray
@@ -61,6 +64,7 @@ class Trajectory:
     time: np.ndarray | None = field(default=None, repr=False)
     stderr: np.ndarray | None = field(default=None, repr=False)
     identified: np.ndarray | None = field(default=None, repr=False)
+    stats: object | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return self.error.shape[-1] if self.error.ndim == 1 else self.skipped.shape[-1]

@@ -107,6 +107,8 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
 
     # what the engine needs to know
     _code_is_rebuilds = True
+    _supports_stats = True
+    _stats_from_buffer = True
 
     def _entries(self):
         return _kernels.WINDOW_DIFFUSE if self._diffuse else _kernels.WINDOW
