@@ -5,6 +5,8 @@
   :mod:`._lms` — one
   module per recursive algorithm, each with the four entry points of one
   common signature (``update``, ``run``, ``run_batched``, ``run_segments``);
+* :mod:`._potter`, :mod:`._covariance` — RLS in square-root and covariance form
+  (``RLS(form=...)``), same four entry points;
 * :mod:`._dims` — the tags that make n and p compile-time constants
   (specialisation per n without generating source), :mod:`._scratch` —
   stack-allocated work arrays.
@@ -17,7 +19,8 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-__all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "NLMS", "tags"]
+__all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "NLMS", "POTTER",
+           "COVARIANCE", "tags"]
 
 from ._cache import install as _install_cache
 from ._dims import tags
@@ -46,7 +49,8 @@ def __getattr__(name):
     # dispatchers of the others
     table = {"RLS": ("_rls", "rls"), "STRATEGY": ("_strategy", "strategy"),
              "KALMAN": ("_kalman", "kalman"), "WINDOW": ("_window", "window"),
-             "LMS": ("_lms", "lms"), "NLMS": ("_lms", "nlms")}
+             "LMS": ("_lms", "lms"), "NLMS": ("_lms", "nlms"),
+             "POTTER": ("_potter", "potter"), "COVARIANCE": ("_covariance", "cov")}
     if name in table:
         value = _entries(*table[name])
         globals()[name] = value

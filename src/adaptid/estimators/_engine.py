@@ -236,8 +236,11 @@ class RecursiveEstimator:
         """
         if not self._has_covariance:
             raise self._no_covariance("covariance P")
-        U, D = self._ud_views(self._S)
-        return P_from_ud(U, D)
+        return self._covariance_of(self._S)
+
+    def _covariance_of(self, S):
+        """P from state rows S (…, L): from the U-D factors (RLS overrides it per form)."""
+        return P_from_ud(*self._ud_views(S))
 
     @property
     def batch_size(self):
@@ -608,7 +611,7 @@ class RecursiveEstimator:
         sse = np.empty((G, E.shape[1]))
         segment_stats(E, skipped, off, n_skip, sse)
         n_used = np.diff(off) - n_skip
-        P = P_from_ud(*self._ud_views(Sout)) if self._has_covariance else None
+        P = self._covariance_of(Sout) if self._has_covariance else None
         theta = self._theta_view(Sout).copy()
         if self._single:
             E, sse = E[:, 0], sse[:, 0]

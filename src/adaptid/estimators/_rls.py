@@ -8,11 +8,12 @@ from .. import _kernels
 from .._validation import check_int, check_scalar, param_error
 from ..forgetting import ConstantTrace, EFRA, resolve as _resolve_forgetting
 from ._engine import RecursiveEstimator, _ForgettingMixin
+from ._rlsforms import FormsMixin, resolve_form
 
 __all__ = ["RLS"]
 
 
-class RLS(_ForgettingMixin, RecursiveEstimator):
+class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
     r"""Recursive least squares with prior (ridge) and exponential forgetting.
 
     After samples 1..N the estimate minimises
@@ -72,6 +73,15 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
         counted in ``Trajectory.skipped`` / ``n_skipped``.
     n_outputs : int, optional
         p outputs sharing the regressor: θ has shape (n, p), one P.
+    form : {"auto", "ud", "sqrt", "covariance"}
+        How P is propagated with plain exponential forgetting (a strategy or
+        ``P_max`` always uses "ud"): U-D factors (Bierman), a square root
+        P = S Sᵀ (Potter: vectorises, faster for large n), or P itself,
+        exactly symmetric, with a definiteness monitor that repairs P
+        (:class:`~adaptid.DefinitenessLossWarning`). "auto" (default): U-D for
+        n ≤ 16, the square-root form above. See
+        :mod:`adaptid.estimators._rlsforms`; ``RLS.from_state(state, form=...)``
+        converts a state between forms.
 
     Attributes
     ----------
@@ -102,7 +112,7 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
     _method = "rls"  # its name for adaptid.estimator
 
     def __init__(self, n_params, *, forgetting=1.0, P_max=None, theta0=None, P0=1e4,
-                 nan_policy="raise", n_outputs=None, windup_threshold=None):
+                 nan_policy="raise", n_outputs=None, windup_threshold=None, form="auto"):
         self.forgetting, self._lam, self._strategy = _resolve_forgetting(forgetting)
         if P_max is not None:
             P_max = check_scalar(P_max, "P_max", low=0.0, low_open=True)
@@ -112,6 +122,7 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
         self.P_max = P_max
         strat = self._strategy
         self._fast = strat is None and P_max is None
+        self._form = resolve_form(form, check_int(n_params, "n_params", low=1), self._fast)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
                          n_outputs=n_outputs, windup_threshold=windup_threshold)
         if isinstance(strat, EFRA):
@@ -123,7 +134,8 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
 
     def _options(self):
         return {"forgetting": self._forgetting_option(), "P_max": self.P_max,
-                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
+                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold,
+                "form": self._form}
 
     # what the engine needs to know
     @property
@@ -131,7 +143,10 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
         return not self._fast
 
     def _entries(self):
-        return _kernels.RLS if self._fast else _kernels.STRATEGY
+        if not self._fast:
+            return _kernels.STRATEGY
+        return {"ud": _kernels.RLS, "sqrt": _kernels.POTTER,
+                "covariance": _kernels.COVARIANCE}[self._form]
 
     def _kernel_options(self):
         if self._fast:
