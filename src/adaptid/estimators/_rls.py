@@ -76,10 +76,11 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
     form : {"auto", "ud", "sqrt", "covariance"}
         How P is propagated with plain exponential forgetting (a strategy or
         ``P_max`` always uses "ud"): U-D factors (Bierman), a square root
-        P = S Sᵀ (Potter: vectorises, faster for large n), or P itself,
+        P = S Sᵀ (Potter), or P itself,
         exactly symmetric, with a definiteness monitor that repairs P
-        (:class:`~adaptid.DefinitenessLossWarning`). "auto" (default): U-D for
-        n ≤ 16, the square-root form above. See
+        (:class:`~adaptid.DefinitenessLossWarning`). "auto" (default): U-D (the
+        square-root kernel is not yet the faster one at any n; see
+        ``benchmarks/bench_rls_forms.py``). The C export (:meth:`to_c`) runs U-D. See
         :mod:`adaptid.estimators._rlsforms`; ``RLS.from_state(state, form=...)``
         converts a state between forms.
 

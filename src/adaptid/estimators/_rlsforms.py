@@ -10,8 +10,8 @@ exponential (no strategy, no ``P_max``; those run on the U-D factors only):
   arithmetic), with a definiteness monitor that repairs P,
   :mod:`adaptid._kernels._covariance`;
 * ``"auto"`` (default) — U-D for n ≤ :data:`AUTO_SQRT_ABOVE`, the square-root
-  form above (the U-D update is sequential across columns and does not
-  vectorise; see ``benchmarks/bench_rls.py``).
+  form above; :data:`AUTO_SQRT_ABOVE` is None (U-D at every n) while the
+  square-root kernel is not the faster one (``benchmarks/bench_rls_forms.py``).
 
 The state vector keeps one length for all forms, ``[θ | n·n block | n]``: U by
 columns and D; S by columns and zeros; P and zeros.
@@ -39,9 +39,12 @@ __all__ = ["FORMS", "AUTO_SQRT_ABOVE", "resolve_form", "block_from_T", "T_from_b
            "P_from_block", "ud_from_block", "convert_state"]
 
 FORMS = ("auto", "ud", "sqrt", "covariance")
-#: ``form="auto"`` takes the square-root form for n above this (measured:
-#: benchmarks/bench_rls.py; the U-D form is faster up to n = 16).
-AUTO_SQRT_ABOVE = 16
+#: ``form="auto"`` takes the square-root form for n above this; None: never.
+#: Measured (benchmarks/bench_rls_forms.py, BENCHMARKS of issue 19): the
+#: square-root kernel as it stands is slower than the U-D one at every n
+#: (0.11-0.12 x the fastest C loop at n = 32, 64 against U-D's 0.21-0.27 x), so
+#: "auto" is U-D everywhere until the sweep vectorises (see _kernels/_potter.py).
+AUTO_SQRT_ABOVE = None
 
 
 def resolve_form(form, n, fast):
@@ -53,7 +56,7 @@ def resolve_form(form, n, fast):
                               "(they act on the U-D factors)", form)
         return "ud"
     if form == "auto":
-        return "sqrt" if n > AUTO_SQRT_ABOVE else "ud"
+        return "sqrt" if AUTO_SQRT_ABOVE is not None and n > AUTO_SQRT_ABOVE else "ud"
     return form
 
 
@@ -205,6 +208,15 @@ class FormsMixin:
         if self._form != "covariance":
             return super()._warn_rebuild(count)
         return self._warn_definiteness(self.n_updates)
+
+    def to_c(self, directory, *, name="rls", dtype="float64"):
+        """The C export runs the U-D form: other forms are exported from their state
+        converted to U-D (exact up to rounding; the C code then equals the U-D form's
+        recursion, not this form's, bit for bit)."""
+        if self._form == "ud":
+            return super().to_c(directory, name=name, dtype=dtype)
+        other = type(self).from_state(self.get_state(), form="ud")
+        return other.to_c(directory, name=name, dtype=dtype)
 
     @classmethod
     def from_state(cls, state: dict, *, form=None):
