@@ -510,8 +510,9 @@ def main(argv=None):
     if args.forms:
         sys.path.insert(0, str(HERE))
         import bench_rls_forms
-        return bench_rls_forms.main(rest + (["--quick"] if args.quick else [])
-                                    + (["--rounds", str(args.rounds)] if args.rounds else []))
+        bench_rls_forms.main(rest + (["--quick"] if args.quick else [])
+                             + (["--rounds", str(args.rounds)] if args.rounds else []))
+        return 0
     if rest:
         ap.error(f"unrecognized arguments: {' '.join(rest)}")
 
