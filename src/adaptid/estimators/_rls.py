@@ -8,7 +8,7 @@ from .. import _kernels
 from .._validation import check_int, check_scalar, param_error
 from ..forgetting import ConstantTrace, EFRA, resolve as _resolve_forgetting
 from ._engine import RecursiveEstimator, _ForgettingMixin
-from ._rlsforms import FormsMixin, resolve_form
+from ._rlsforms import FormsMixin, ntag_for, resolve_form
 
 __all__ = ["RLS"]
 
@@ -126,6 +126,7 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
         self._form = resolve_form(form, check_int(n_params, "n_params", low=1), self._fast)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
                          n_outputs=n_outputs, windup_threshold=windup_threshold)
+        self._ntag = ntag_for(self._form, self.n_params, self._ntag)
         if isinstance(strat, EFRA):
             bound = (1 - strat.alpha) / (strat.lam * strat.delta) if strat.delta > 0 else np.inf
             if np.linalg.eigvalsh(self.P0)[-1] > bound:

@@ -60,6 +60,22 @@ def resolve_form(form, n, fast):
     return form
 
 
+#: the covariance form is compiled for each n up to this (n a compile-time constant:
+#: LLVM keeps u and c in vector registers across the fused sweep, as gcc does for
+#: the C loop ``rls_fu_nN``); larger n use the generic kernel. The other forms
+#: follow ``adaptid._config.MAX_SPECIALISED_N``.
+COVARIANCE_SPECIALISED_N = 64
+
+
+def ntag_for(form, n, tag):
+    """The size tag of an RLS in ``form`` (the engine's ``tag`` unless specialised here)."""
+    import os
+    if form != "covariance" or not isinstance(tag, int) or n > COVARIANCE_SPECIALISED_N \
+            or os.environ.get("NUMBA_DISABLE_JIT") == "1":
+        return tag
+    return (0,) * n
+
+
 def _cols(block, n):
     """The n × n matrix stored by columns in ``block`` (…, n·n)."""
     return np.swapaxes(block.reshape(block.shape[:-1] + (n, n)), -1, -2)
