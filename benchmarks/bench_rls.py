@@ -503,7 +503,18 @@ def main(argv=None):
                     help="output per call of the chunked compiled timings (default 16 MiB)")
     ap.add_argument("--seed", type=int, default=20240521)
     ap.add_argument("--no-c", action="store_true", help="skip the C contenders")
-    args = ap.parse_args(argv)
+    ap.add_argument("--forms", action="store_true",
+                    help="only the table of RLS forms (U-D, square root, covariance, auto) "
+                         "at n = 2..64 against the fastest C loop (bench_rls_forms.py)")
+    args, rest = ap.parse_known_args(argv)
+    if args.forms:
+        sys.path.insert(0, str(HERE))
+        import bench_rls_forms
+        bench_rls_forms.main(rest + (["--quick"] if args.quick else [])
+                             + (["--rounds", str(args.rounds)] if args.rounds else []))
+        return 0
+    if rest:
+        ap.error(f"unrecognized arguments: {' '.join(rest)}")
 
     quick = args.quick
     rounds = args.rounds or (2 if quick else 7)

@@ -15,6 +15,9 @@ from adaptid import forgetting as fg
 
 from conftest import SOAK
 
+#: the forms of RLS with exponential forgetting (issue 19): every stability test runs in each
+FORMS = ("ud", "sqrt", "covariance")
+
 STRATEGIES = {
     "exponential": lambda: fg.Exponential(0.97),
     "directional": lambda: fg.Directional(0.97),
@@ -241,9 +244,10 @@ def _efra_bound(s):
     return (a + np.sqrt(a * a + 4 * s.delta * s.beta)) / (2 * s.delta)
 
 
-def test_exponential_forgetting_winds_up_and_warns(rng):
+@pytest.mark.parametrize("form", FORMS)
+def test_exponential_forgetting_winds_up_and_warns(rng, form):
     Phi_q, y_q, _, _ = _quiet_then_jump(rng, 20_000)
-    est = adaptid.RLS(2, forgetting=0.98, P0=1.0)
+    est = adaptid.RLS(2, forgetting=0.98, P0=1.0, form=form)
     with pytest.warns(adaptid.CovarianceWindupWarning, match="windup"):
         est.run(Phi_q, y_q)
     # the unexcited direction's variance grows like λ^-k: 0.98^-20000 overflows
@@ -302,15 +306,17 @@ def test_excitation_measure(rng):
     assert est.excitation < 1e-5  # only the decayed prior 1/P0 remains in φ₂
 
 
-def test_windup_threshold_warns_once_per_episode(rng):
+@pytest.mark.parametrize("form", FORMS)
+def test_windup_threshold_warns_once_per_episode(rng, form):
+    # U-D: the pivot D₂ = P₂₂ here; square-root and covariance forms: diag(P)
     Phi = np.column_stack([rng.standard_normal(2000), np.zeros(2000)])
-    est = adaptid.RLS(2, forgetting=0.99, P0=1.0, windup_threshold=1e3)
+    est = adaptid.RLS(2, forgetting=0.99, P0=1.0, windup_threshold=1e3, form=form)
     with pytest.warns(adaptid.CovarianceWindupWarning, match="windup_threshold=1e\\+03") as rec:
         est.run(Phi[:1000], Phi[:1000, 0])
         est.run(Phi[1000:], Phi[1000:, 0])
     assert len(rec) == 1
     # 0.99^-k passes 1e3 at k = ln(1e3)/-ln(0.99) ≈ 688
-    est2 = adaptid.RLS(2, forgetting=0.99, P0=1.0, windup_threshold=1e3)
+    est2 = adaptid.RLS(2, forgetting=0.99, P0=1.0, windup_threshold=1e3, form=form)
     with warnings.catch_warnings(record=True) as rec2:
         warnings.simplefilter("always")
         est2.run(Phi[:680], Phi[:680, 0])
@@ -330,9 +336,9 @@ def test_kalman_windup_threshold(rng):
 # --------------------------------------------------------------------------
 # long run: 10⁶ (CI) / 10⁷ (soak) updates at λ = 0.99
 # --------------------------------------------------------------------------
-def _long_run(n_total, rng):
+def _long_run(n_total, rng, form="ud"):
     n, lam, W = 4, 0.99, 4000          # λ^W = 3e-18: older samples are below 1e-8
-    est = adaptid.RLS(n, forgetting=lam, P0=1e4)
+    est = adaptid.RLS(n, forgetting=lam, P0=1e4, form=form)
     chunk = 100_000
     theta = np.array([1.0, -2.0, 0.5, 3.0])
     for start in range(0, n_total, chunk):
@@ -350,19 +356,22 @@ def _long_run(n_total, rng):
     assert est.n_updates == n_total
 
 
-def test_long_run_million_updates_stay_exact(rng):
-    _long_run(1_000_000, rng)
+@pytest.mark.parametrize("form", FORMS)
+def test_long_run_million_updates_stay_exact(rng, form):
+    _long_run(1_000_000, rng, form)
 
 
 @pytest.mark.soak
-def test_long_run_ten_million_updates_stay_exact(rng):
-    _long_run(10_000_000, rng)
+@pytest.mark.parametrize("form", FORMS)
+def test_long_run_ten_million_updates_stay_exact(rng, form):
+    _long_run(10_000_000, rng, form)
 
 
 # --------------------------------------------------------------------------
 # missing data: 5 % NaN
 # --------------------------------------------------------------------------
-def test_nan_skip_equals_removed_samples_rls(rng):
+@pytest.mark.parametrize("form", FORMS)
+def test_nan_skip_equals_removed_samples_rls(rng, form):
     N, n = 4000, 3
     Phi = rng.standard_normal((N, n))
     y = Phi @ [1.0, 2.0, -1.0] + 0.1 * rng.standard_normal(N)
@@ -371,9 +380,9 @@ def test_nan_skip_equals_removed_samples_rls(rng):
     half = miss & (rng.random(N) < 0.5)
     Phi_nan[half, rng.integers(0, n, half.sum())] = np.nan
     y_nan[miss & ~half] = np.nan
-    est = adaptid.RLS(n, P0=1e3, nan_policy="skip")
+    est = adaptid.RLS(n, P0=1e3, nan_policy="skip", form=form)
     tr = est.run(Phi_nan, y_nan)
-    ref = adaptid.RLS(n, P0=1e3)
+    ref = adaptid.RLS(n, P0=1e3, form=form)
     tr_ref = ref.run(Phi[~miss], y[~miss])
     assert np.array_equal(tr.skipped, miss) and est.n_skipped == miss.sum()
     np.testing.assert_allclose(tr.theta[~miss], tr_ref.theta, rtol=1e-12)

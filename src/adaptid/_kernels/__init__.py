@@ -12,6 +12,8 @@
   inlined into the RLS and window streams (output ``St`` of the common
   signature: an array of N + 1 rows when asked for, None when not, chosen at
   compile time);
+* :mod:`._potter`, :mod:`._covariance` — RLS in square-root and covariance form
+  (``RLS(form=...)``), same four entry points;
 * :mod:`._dims` — the tags that make n and p compile-time constants
   (specialisation per n without generating source), :mod:`._scratch` —
   stack-allocated work arrays.
@@ -25,7 +27,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 __all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "NLMS", "RLS_DIFFUSE",
-           "WINDOW_DIFFUSE", "KALMAN_DIFFUSE", "tags"]
+           "WINDOW_DIFFUSE", "KALMAN_DIFFUSE", "POTTER", "COVARIANCE", "tags"]
 
 from ._cache import install as _install_cache
 from ._dims import tags
@@ -57,7 +59,8 @@ def __getattr__(name):
              "LMS": ("_lms", "lms"), "NLMS": ("_lms", "nlms"),
              "RLS_DIFFUSE": ("_diffuse", "rls_diffuse"),
              "WINDOW_DIFFUSE": ("_diffuse", "window_diffuse"),
-             "KALMAN_DIFFUSE": ("_diffuse_kalman", "kalman_diffuse")}
+             "KALMAN_DIFFUSE": ("_diffuse_kalman", "kalman_diffuse"),
+             "POTTER": ("_potter", "potter"), "COVARIANCE": ("_covariance", "cov")}
     if name in table:
         value = _entries(*table[name])
         globals()[name] = value

@@ -58,6 +58,9 @@ def describe(state) -> dict:
         raise param_error("est", "a single-output estimator (n_outputs=1) for the C export",
                           f"<n_outputs={state['n_outputs']}>")
     opts = state["options"]
+    if kind == "RLS" and opts.get("form", "ud") != "ud":  # the C export runs the U-D form
+        raise param_error("est", "an RLS in U-D form (est.to_c converts; or "
+                          "RLS.from_state(est.get_state(), form='ud'))", f"<form={opts['form']!r}>")
     if kind in _lms.KINDS:
         return {"kind": kind, "step": float(opts["step"]), "eps": float(opts.get("eps", 0.0))}
     info = {"kind": kind, "threshold": float(opts["windup_threshold"])}

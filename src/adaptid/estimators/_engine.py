@@ -334,11 +334,14 @@ class RecursiveEstimator:
         """
         if not self._has_covariance:
             raise self._no_covariance("covariance P")
-        U, D = self._ud_views(self._S)
-        P = P_from_ud(U, D)
+        P = self._covariance_of(self._S)
         if self._diffuse:
             P[~self._identified_of(self._S)] = np.inf
         return P
+
+    def _covariance_of(self, S):
+        """P from state rows S (…, L): from the U-D factors (RLS overrides it per form)."""
+        return P_from_ud(*self._ud_views(S))
 
     @property
     def batch_size(self):
@@ -615,6 +618,8 @@ class RecursiveEstimator:
         self.n_updates += 1
         if code >= 0:
             self._warn_nonpositive(self.n_updates)
+        elif code <= -2:  # a repaired covariance (RLS form="covariance")
+            self._warn_rebuild(1)
         return float(e) if self._single else a.E[0].copy()
 
     def _update_window(self, phi, y, lam, w):
@@ -786,7 +791,7 @@ class RecursiveEstimator:
         sse = np.empty((G, E.shape[1]))
         segment_stats(E, skipped, off, n_skip, sse)
         n_used = np.diff(off) - n_skip
-        P = P_from_ud(*self._ud_views(Sout)) if self._has_covariance else None
+        P = self._covariance_of(Sout) if self._has_covariance else None
         if self._diffuse:
             P[~self._identified_of(Sout)] = np.inf
         theta = self._theta_view(Sout).copy()

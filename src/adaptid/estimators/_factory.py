@@ -14,7 +14,7 @@ __all__ = ["estimator", "METHODS", "method_of", "method_options"]
 #: Method names and the keyword options each one takes (besides the common
 #: ``theta0``, ``P0``, ``nan_policy``, ``n_outputs``, ``windup_threshold``).
 _SPECIFIC = {
-    "rls": ("forgetting", "P_max"),
+    "rls": ("forgetting", "P_max", "form"),
     "window": ("window", "forgetting"),
     "kalman": ("process_cov", "noise_var"),
     "lms": ("step",),

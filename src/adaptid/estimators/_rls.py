@@ -8,11 +8,12 @@ from .. import _config, _kernels
 from .._validation import check_int, check_scalar, param_error
 from ..forgetting import ConstantTrace, EFRA, resolve as _resolve_forgetting
 from ._engine import RecursiveEstimator, _ForgettingMixin
+from ._rlsforms import FormsMixin, ntag_for, resolve_form
 
 __all__ = ["RLS"]
 
 
-class RLS(_ForgettingMixin, RecursiveEstimator):
+class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
     r"""Recursive least squares with prior (ridge) and exponential forgetting.
 
     After samples 1..N the estimate minimises
@@ -74,6 +75,16 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
         counted in ``Trajectory.skipped`` / ``n_skipped``.
     n_outputs : int, optional
         p outputs sharing the regressor: θ has shape (n, p), one P.
+    form : {"auto", "ud", "sqrt", "covariance"}
+        How P is propagated with plain exponential forgetting (a strategy or
+        ``P_max`` always uses "ud"): U-D factors (Bierman), a square root
+        P = S Sᵀ (Potter), or P itself,
+        exactly symmetric, with a definiteness monitor that repairs P
+        (:class:`~adaptid.DefinitenessLossWarning`). "auto" (default): U-D (the
+        square-root kernel is not yet the faster one at any n; see
+        ``benchmarks/bench_rls_forms.py``). The C export (:meth:`to_c`) runs U-D. See
+        :mod:`adaptid.estimators._rlsforms`; ``RLS.from_state(state, form=...)``
+        converts a state between forms.
 
     Attributes
     ----------
@@ -135,7 +146,7 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
     _method = "rls"  # its name for adaptid.estimator
 
     def __init__(self, n_params, *, forgetting=1.0, P_max=None, theta0=None, P0=1e4,
-                 nan_policy="raise", n_outputs=None, windup_threshold=None):
+                 nan_policy="raise", n_outputs=None, windup_threshold=None, form="auto"):
         self.forgetting, self._lam, self._strategy = _resolve_forgetting(forgetting)
         if P_max is not None:
             P_max = check_scalar(P_max, "P_max", low=0.0, low_open=True)
@@ -149,8 +160,13 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
             raise param_error("P0", "a positive scalar or an SPD matrix with a forgetting "
                               "strategy or P_max ('diffuse' needs constant or per-sample "
                               "exponential forgetting)", P0)
+        self._form = resolve_form(form, check_int(n_params, "n_params", low=1), self._fast)
+        if isinstance(P0, str) and self._form != "ud":
+            raise param_error("form", "'auto' or 'ud' with P0='diffuse' (the exact diffuse start "
+                              "hands over to the U-D form)", form)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
                          n_outputs=n_outputs, windup_threshold=windup_threshold)
+        self._ntag = ntag_for(self._form, self.n_params, self._ntag)
         if isinstance(strat, EFRA):
             bound = (1 - strat.alpha) / (strat.lam * strat.delta) if strat.delta > 0 else np.inf
             if np.linalg.eigvalsh(self.P0)[-1] > bound:
@@ -160,7 +176,8 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
 
     def _options(self):
         return {"forgetting": self._forgetting_option(), "P_max": self.P_max,
-                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
+                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold,
+                "form": self._form}
 
     # what the engine needs to know
     @property
@@ -169,12 +186,15 @@ class RLS(_ForgettingMixin, RecursiveEstimator):
 
     @property
     def _supports_stats(self):
-        return self._fast
+        return self._fast and self._form == "ud"  # the statistics hooks are in the U-D stream
 
     def _entries(self):
         if self._diffuse:
             return _kernels.RLS_DIFFUSE
-        return _kernels.RLS if self._fast else _kernels.STRATEGY
+        if not self._fast:
+            return _kernels.STRATEGY
+        return {"ud": _kernels.RLS, "sqrt": _kernels.POTTER,
+                "covariance": _kernels.COVARIANCE}[self._form]
 
     def _diffuse_tail(self):
         n, p = self.n_params, self.n_outputs

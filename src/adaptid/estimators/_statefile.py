@@ -128,6 +128,8 @@ def _build(cls, kind, state):
     if not isinstance(opts, dict):
         raise TypeError(f"state['options'] must be a dict, got {type(opts).__name__}")
     opts = dict(opts)
+    if kind == "RLS":
+        opts.setdefault("form", "ud")  # states written before RLS had forms hold U-D factors
     theta0 = np.asarray(state["theta0"])
     if theta0.ndim != 2:
         raise ValueError(f"state['theta0'] must be 2-dimensional (n, p), got shape {theta0.shape}")

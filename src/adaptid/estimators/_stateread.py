@@ -267,8 +267,8 @@ def check_content(path, kind, header, arrays):
         if name in arrays and not np.all(np.isfinite(arrays[name])):
             refuse(path, f"array {name!r} holds NaN or inf")
     S = arrays["state"].reshape(-1, arrays["state"].shape[-1])
-    if kind in GRADIENT_KINDS:
-        ok = np.all(np.isfinite(S), axis=1)
+    if kind in GRADIENT_KINDS or (kind == "RLS" and header["options"].get("form", "ud") != "ud"):
+        ok = np.all(np.isfinite(S), axis=1)  # θ and S (P = S Sᵀ) or P: any finite values
     else:
         ok = _factor_ok(S, 0, n, p)
     if kind == "SlidingWindowRLS":

@@ -1,0 +1,265 @@
+r"""RLS with exponential forgetting in covariance form: ``RLS(form="covariance")``.
+
+Same entry points and signature as :mod:`._rls`; the covariance block of the
+state is ``[theta (n·p) | P (n·n, full, exactly symmetric) | 0 (n)]``. The
+arithmetic is that of MATLAB's ``recursiveLS`` and of the C loop
+``rls_fu_nN`` of ``rls_ref.c`` (r = λ/w):
+
+.. math::
+
+    u = P\varphi,\quad d = r + \varphi^T u,\quad
+    \theta \leftarrow \theta + u\,\varepsilon/d,\quad c = u/\sqrt d,\quad
+    P_{ij} \leftarrow (P_{ij} - c_i c_j)/\lambda,
+
+where :math:`c_i c_j = c_j c_i` bit for bit keeps P exactly symmetric
+(Ljung & Söderström 1983, eq. 2.19, with the symmetric rank-one form). The
+P update of sample k is fused with :math:`u = P\varphi_{k+1}` of the next
+(``u += P[j, :] φⱼ``, an axpy LLVM vectorises); one sweep over P per sample.
+
+Definiteness monitor and repair
+-------------------------------
+Rounding can make this form indefinite (e.g. λ ≪ 1 with a direction that is
+not excited: P's eigenvalues then differ by more than 1/ε). When
+:math:`\varphi^T P\varphi \le 0` for a nonzero φ (checked before the update)
+or a diagonal entry of P is not positive (after it), P is **repaired**: a
+modified LDLᵀ factorisation (Gill & Murray 1974) :math:`P = U\,\mathrm{diag}(D)\,U^T`
+is formed with each pivot raised to at least ``ε·max|Pᵢᵢ|``, and P is set to
+:math:`U\,\mathrm{diag}(D)\,U^T` (symmetric, positive definite; directions
+with positive pivots are unchanged). We chose this repair over restoring the
+last good P (a copy of P per sample would cost a second sweep) and over an
+eigen-decomposition (LAPACK inside the kernel, no better here).
+
+Return code: the first sample after which a diagonal entry of P passed the
+windup threshold ``opt[0]`` or was not finite (≥ 0); else ``−2 − k`` if P was
+repaired, k the first repaired sample; else −1. ``update`` returns the bits
+NONPOSITIVE (windup) and REBUILT (repaired).
+"""
+
+import numpy as np
+from numba import prange
+
+from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _one_sample, _segment_start, _views
+from ._dims import dim
+from ._scratch import scratch, scratch2
+
+EPS = 2.220446049250313e-16
+
+
+@njit(**NJIT)
+def cov_repair(P):
+    """P ← U diag(D) Uᵀ of a modified upper LDLᵀ of P (pivots ≥ ε·max|Pᵢᵢ|).
+
+    Only reached when the monitor fired; allocates. Returns the number of
+    pivots that were raised.
+    """
+    n = P.shape[0]
+    m = 0.0
+    for i in range(n):
+        if np.isfinite(P[i, i]) and abs(P[i, i]) > m:
+            m = abs(P[i, i])
+    floor = EPS * m if m > 0.0 else 1e-300
+    U = np.zeros((n, n))
+    D = np.empty(n)
+    raised = 0
+    for j in range(n - 1, -1, -1):
+        d = P[j, j]
+        for k in range(j + 1, n):
+            d -= D[k] * U[j, k] * U[j, k]
+        if not d > floor:
+            d = floor
+            raised += 1
+        D[j] = d
+        U[j, j] = 1.0
+        for i in range(j):
+            s = P[i, j]
+            for k in range(j + 1, n):
+                s -= D[k] * U[i, k] * U[j, k]
+            U[i, j] = s / d
+    for i in range(n):
+        for j in range(i, n):
+            s = 0.0
+            for k in range(j, n):
+                s += U[i, k] * D[k] * U[j, k]
+            P[i, j] = s
+            P[j, i] = s
+    return raised
+
+
+@njit(**NJIT_INLINE)
+def _matvec(P, phi, u, NP):
+    """u = Pφ as Σⱼ φⱼ P[j, :] (P symmetric): the sweep's arithmetic."""
+    for i in range(NP):
+        u[i] = 0.0
+    for j in range(NP):
+        pj = phi[j]
+        for i in range(NP):
+            u[i] += P[j, i] * pj
+
+
+@njit(**NJIT_INLINE)
+def _sweep(P, c, u, il, nxt, dthr, NP):
+    """P ← (P − c cᵀ)/λ row by row, u ← P φ_next; returns (diag in (0, dthr), diag > 0)."""
+    for i in range(NP):
+        u[i] = 0.0
+    inside = True
+    pos = True
+    for j in range(NP):
+        cj = c[j]
+        pj = nxt[j]
+        for i in range(NP):
+            v = (P[j, i] - cj * c[i]) * il
+            P[j, i] = v
+            u[i] += v * pj
+        pjj = P[j, j]
+        inside &= (pjj > 0.0) & (pjj < dthr)
+        pos &= pjj > 0.0
+    return inside, pos
+
+
+@njit(**NJIT_INLINE)
+def _errors(theta, phi, Y, k, e, E, NP, p):
+    for j in range(p):
+        s = Y[k, j]
+        for i in range(NP):
+            s -= phi[i] * theta[i, j]
+        e[j] = s
+        E[k, j] = s
+
+
+@njit(**NJIT_INLINE)
+def _quad(phi, u, NP):
+    """(φᵀu, whether φ ≠ 0)."""
+    q = 0.0
+    nz = False
+    for i in range(NP):
+        q += phi[i] * u[i]
+        nz |= phi[i] != 0.0
+    return q, nz
+
+
+@njit(**NJIT_INLINE)
+def _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
+    theta, Ps, _ = _views(S, NP, p)
+    P = scratch2(NP)
+    for j in range(NP):
+        for i in range(NP):
+            P[j, i] = Ps[i, j]  # symmetric: the transpose is P itself
+    u = scratch(NP)
+    c = scratch(NP)
+    e = scratch(p)
+    N = Phi.shape[0]
+    store = Th.shape[0] == N
+    fresh = False  # u = P Phi[k]
+    bad = -1
+    repaired = -1
+    for k in range(N):
+        phi = Phi[k]
+        ok = True
+        for i in range(NP):
+            ok &= phi[i] - phi[i] == 0.0
+        for j in range(p):
+            ok &= Y[k, j] - Y[k, j] == 0.0
+        wk = w[k]
+        inside = True
+        if ok and wk > 0.0:
+            if not fresh:
+                _matvec(P, phi, u, NP)
+            q, nz = _quad(phi, u, NP)
+            if nz and not q > 0.0:
+                cov_repair(P)
+                repaired = k if repaired < 0 else repaired
+                _matvec(P, phi, u, NP)
+                q, nz = _quad(phi, u, NP)
+            _errors(theta, phi, Y, k, e, E, NP, p)
+            d = lam[k] / wk + q
+            idd = 1.0 / d
+            sq = idd * np.sqrt(d)
+            for i in range(NP):
+                g = u[i] * idd
+                for j in range(p):
+                    theta[i, j] += g * e[j]
+                c[i] = u[i] * sq
+            inside, pos = _sweep(P, c, u, 1.0 / lam[k], Phi[k + 1] if k + 1 < N else phi,
+                                 dthr, NP)
+            fresh = True
+            if not pos:
+                cov_repair(P)
+                repaired = k if repaired < 0 else repaired
+                fresh = False
+                inside = _diag_inside(P, dthr, NP)
+        elif ok:  # weight 0: the sample only advances the forgetting
+            _errors(theta, phi, Y, k, e, E, NP, p)
+            il = 1.0 / lam[k]
+            for j in range(NP):
+                for i in range(NP):
+                    P[j, i] *= il
+            inside = _diag_inside(P, dthr, NP)
+            fresh = False
+        else:
+            skipped[k] = True
+            for j in range(p):
+                E[k, j] = np.nan
+            fresh = False
+        if bad < 0 and not inside:
+            bad = k
+        if store:
+            for i in range(NP):
+                for j in range(p):
+                    Th[k, i, j] = theta[i, j]
+    for j in range(NP):
+        for i in range(NP):
+            Ps[i, j] = P[j, i]
+    return bad if bad >= 0 else (-2 - repaired if repaired >= 0 else -1)
+
+
+@njit(**NJIT_INLINE)
+def _diag_inside(P, dthr, NP):
+    inside = True
+    for i in range(NP):
+        inside &= (P[i, i] > 0.0) & (P[i, i] < dthr)
+    return inside
+
+
+@njit(**NJIT)
+def cov_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
+    """One step through the same compiled code as :func:`cov_run` (status bits)."""
+    NP = dim(ntag)
+    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
+    code = _cov_stream(S, Phi, Y, lam1, w1, Th, E, skipped, opt[0], NP, dim(ptag))
+    if skipped[0]:
+        return SKIPPED
+    if code >= 0:
+        return NONPOSITIVE
+    if code <= -2:
+        return REBUILT
+    return 0
+
+
+@njit(**NJIT)
+def cov_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
+    """N steps; returns the code described in the module docstring."""
+    return _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, opt[0], dim(ntag), dim(ptag))
+
+
+@njit(**NJIT_PARALLEL)
+def cov_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
+                    ptag):
+    """B independent streams in parallel; ``codes[b]`` as :func:`cov_run` returns."""
+    NP = dim(ntag)
+    p = dim(ptag)
+    for s in prange(Phi.shape[0]):
+        codes[s] = _cov_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
+                               opt[0], NP, p)
+
+
+@njit(**NJIT_PARALLEL)
+def cov_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
+                     codes, ntag, ptag):
+    """G streams stored back to back, each from S0 (bit for bit :func:`cov_run`)."""
+    NP = dim(ntag)
+    p = dim(ptag)
+    for g in prange(offsets.shape[0] - 1):
+        a, z, S = _segment_start(S0, Sout, offsets, g)
+        codes[g] = _cov_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                               skipped[a:z], opt[0], NP, p)
