@@ -49,15 +49,18 @@ def test_batched_equals_run_per_stream(n):
     est = adaptid.RLS(n, forgetting=0.98, P0=100.0, nan_policy="skip",
                       theta0=rng.standard_normal(n))
     assert est._soa_entry("batched", B) is _soa.rls_soa_batched
+    assert est._soa_entry("batched", B, store=True) is None  # θ per sample: the old kernel
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
-        tb = est.copy().run_batched(Phi, y, weights=w, forgetting=lam)
         bat = est.copy()
-        bat.run_batched(Phi, y, weights=w, forgetting=lam)
+        tb = bat.run_batched(Phi, y, weights=w, forgetting=lam, store=False)
+        # the lane kernel with θ stored, called directly
+        args = _kernel_args(est, Phi, y, w, lam)
+        _soa.rls_soa_batched(*args)
         for s in range(B):
             one = est.copy()
             tr = one.run(Phi[s], y[s], weights=w[s], forgetting=lam[s])
-            assert _same(tb.theta[s], tr.theta), s
+            assert _same(args[5][s, :, :, 0], tr.theta), s
             assert _same(tb.error[s], tr.error), s
             assert np.array_equal(tb.skipped[s], tr.skipped), s
             assert _same(bat.theta[s], one.theta), s
@@ -73,14 +76,14 @@ def test_batched_constant_weights_and_forgetting_and_continuation():
     est = adaptid.RLS(n, forgetting=0.97, P0=1e4)
     bat = est.copy()
     t1 = bat.run_batched(Phi[:, :20], y[:, :20], weights=2.0, store=False)
-    t2 = bat.run_batched(Phi[:, 20:], y[:, 20:], weights=2.0)
+    t2 = bat.run_batched(Phi[:, 20:], y[:, 20:], weights=2.0, store=False)
     for s in range(B):
         one = est.copy()
         r1 = one.run(Phi[s, :20], y[s, :20], weights=2.0)
         r2 = one.run(Phi[s, 20:], y[s, 20:], weights=2.0)
         assert t1.theta.shape[1] == 0
         assert _same(t1.error[s], r1.error) and _same(t2.error[s], r2.error)
-        assert _same(t2.theta[s], r2.theta) and _same(bat.P[s], one.P)
+        assert _same(bat.theta[s], one.theta) and _same(bat.P[s], one.P)
 
 
 def _kernel_args(est, Phi, y, w, lam):
@@ -108,7 +111,7 @@ def test_windup_codes_equal():
     codes = a[11]
     assert (codes >= 0).any() and (codes >= 0).sum() < B  # some streams wound up, some not
     with pytest.warns(adaptid.CovarianceWindupWarning) as soa_w:
-        est.copy().run_batched(Phi, y, weights=w, forgetting=lam)
+        est.copy().run_batched(Phi, y, weights=w, forgetting=lam, store=False)
     first = int(np.argmax(codes >= 0))
     assert f"{int(codes[first])} of stream {first}" in str(soa_w[0].message)
 
@@ -133,18 +136,34 @@ def test_segments_equal_run_per_segment(n, store):
     assert est._soa_entry("segments", G) is _soa.rls_soa_segments
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
-        res = est.run_segments(Phi, y, off, weights=w, store=store)
+        if store:  # the engine stores θ with the old kernel: call the lane kernel directly
+            res = _segment_kernel_result(est, _soa.rls_soa_segments, Phi, y, off, w)
+        else:
+            res = est.run_segments(Phi, y, off, weights=w)
         for g in range(G):
             a, z = off[g], off[g + 1]
             one = est.copy().reset()
             tr = one.run(Phi[a:z], y[a:z], weights=w[a:z])
             assert _same(res.theta[g], one.theta), g
-            assert _same(res.P[g], one.P), g
             assert _same(res.error[a:z], tr.error), g
             assert np.array_equal(res.skipped[a:z], tr.skipped), g
-            assert res.n_skipped[g] == one.n_skipped
             if store:
                 assert _same(res.theta_track[a:z], tr.theta), g
+            else:
+                assert _same(res.P[g], one.P), g
+                assert res.n_skipped[g] == one.n_skipped
+
+
+def _segment_kernel_result(est, kern, Phi, y, off, w):
+    """A segmented run through ``kern`` with θ stored (fields as SegmentResult's)."""
+    from types import SimpleNamespace
+    G, N, n = off.size - 1, Phi.shape[0], Phi.shape[1]
+    S0 = est.get_state()["state"]
+    Sout, Th, E = np.empty((G, S0.size)), np.empty((N, n, 1)), np.empty((N, 1))
+    sk = np.zeros(N, dtype=np.bool_)
+    kern(S0, Sout, Phi, y[:, None], off, np.full(N, est.forgetting), w, Th, E, sk,
+         np.empty(0), est._opt, est._mat, np.empty(G, dtype=np.int64), est._ntag, est._ptag)
+    return SimpleNamespace(theta=Sout[:, :n], error=E[:, 0], skipped=sk, theta_track=Th[..., 0])
 
 
 def test_segments_status_equal():

@@ -1,36 +1,29 @@
 r"""RLS over many streams in SIMD: the streams laid out structure-of-arrays.
 
-:func:`rls_soa_batched` and :func:`rls_soa_segments` compute what
-:func:`._rls.rls_run_batched` and :func:`._rls.rls_run_segments` compute,
-bit for bit per stream, but run ``LANES`` streams in lock-step over time so
-that one vector instruction serves several streams. A block of streams has
-its state in small lane-major arrays (``U[i, j, l]``, ``D[i, l]``,
-``θ[i, l]``, lane ``l`` innermost); ``CHUNK`` time steps of its Φ, y, λ and
-w are transposed into lane-major scratch, the steps run, and ε, the
-skipped flags and θ are scattered back.
+:func:`rls_soa_batched` and :func:`rls_soa_segments` compute, bit for bit per
+stream, what :func:`._rls.rls_run_batched` / :func:`._rls.rls_run_segments`
+compute, but run ``LANES`` streams in lock-step over time so that one vector
+instruction serves several streams. A block's state lives in lane-major
+arrays (``U[i, j, l]``, ``D[0, i, l]``, ``θ[0, i, l]``, lane l innermost);
+``CHUNK`` samples of its Φ and y are transposed into lane-major scratch, the
+steps run, and ε, the skipped flags and θ are scattered back.
 
-Each step is one loop over the lanes whose body is the scalar update of
-:func:`._rls._rls_stream` for lane ``l`` (same operations in the same
-order: the Bierman stages taken two at a time as in
-:func:`._bierman._bierman_apply_pairs`), with the small loops over n
-unrolled (n is a compile-time constant, :mod:`._dims`). LLVM vectorises the
-lane loop: every lane does the same operations on its own data, so the
-per-lane results equal the scalar kernel's. Lanes differ only in data:
-instead of the scalar kernel's branches (non-finite row: skipped; weight 0:
-only the forgetting), every lane computes the full update and selects
-(blend) what the scalar kernel would have kept. The entry points are
-compiled with ``error_model="numpy"`` so that a division by zero in a lane
-whose result is discarded (w = 0 gives r = 1/w = inf) raises nothing and
-puts no branch in the loop.
+A step is one loop over the lanes whose body is :func:`._rls._rls_stream`'s
+update of lane l, the same operations in the same order (Bierman stages two
+at a time, as :func:`._bierman._bierman_apply_pairs`), n a compile-time
+constant; LLVM vectorises that loop, so each lane's bits equal the scalar
+kernel's (checked by tests/test_soa.py). Where the scalar kernel branches
+(non-finite row: skipped; weight 0: forgetting only) every lane computes the
+whole update and keeps what the scalar kernel keeps with a select
+(:func:`blend`). ``error_model="numpy"``: a division by zero in a discarded
+lane (w = 0: r = 1/w = inf) raises nothing and puts no branch in the loop.
 
-Batched: blocks of ``LANES`` consecutive streams, the last one padded with
-idle lanes (rows of NaN: always skipped, never written back). Segments:
-sorted by length (longest first) and dealt ``LANES`` to a block, so the
-lanes of a block have nearly equal lengths; a lane past the end of its
-segment idles the same way. Parallel over blocks (``prange``).
-
-Only p = 1 (one output) with n a compile-time constant; the engine routes
-everything else to :mod:`._rls`.
+Batched: blocks of ``LANES`` consecutive streams; in the last block the
+lanes past the last stream repeat it and are not written back. Segments:
+sorted by length and dealt ``LANES`` to a block (nearly equal lengths in a
+block); past its segment's end a lane reads NaN rows (skipped: its state
+stays). Parallel over blocks. Only p = 1 with tuple size tags: the engine
+sends everything else to :mod:`._rls`.
 """
 
 import numba
@@ -73,9 +66,7 @@ def _lane_scratch(a, b):
     return lambda a, b: np.empty((a, b, LANES))
 
 
-# --------------------------------------------------------------------------
-# the lane-wise update
-# --------------------------------------------------------------------------
+# --- the lane-wise update ---
 def blend(c, a, b):  # pragma: no cover - replaced by the overload in compiled code
     """``a if c else b`` without a branch (an LLVM ``select``)."""
     return a if c else b
@@ -93,10 +84,8 @@ def _select(typingctx, c, a, b):
 
 @overload(blend, inline="always")
 def _blend(c, a, b):
-    # A value select, never a branch around a store: a branch lets LLVM
-    # turn the store into a masked store, and a load from a location a masked
-    # store has just written waits for the store to retire (no forwarding),
-    # which made the vectorised step 10 x slower than the scalar one.
+    # Not a branch: LLVM made masked stores of those, and a load after a masked
+    # store waits for it to retire (no forwarding): the step ran 5-10 x slower.
     return lambda c, a, b: _select(c, a, b)
 
 
@@ -206,48 +195,49 @@ def _lane_steps(U, D, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, T, dthr, NP):
             Sk[0, t, l] = blend(ok, 0.0, 1.0)
 
 
-# --------------------------------------------------------------------------
-# state in and out of the lanes
-# --------------------------------------------------------------------------
+@njit(**_INL)
+def _block_scratch(NP):
+    """A block's lane-major work arrays (on the stack: inlined into the block).
+
+    U (n, n, L), D, θ (1, n, L), first bad sample (1, 1, L); a chunk of Φ
+    (CHUNK, n, L), of y, 1/λ, w, 1/w, ε, skipped flags (1, CHUNK, L) and θ.
+    """
+    return (lane_scratch(NP, NP), lane_scratch(1, NP), lane_scratch(1, NP),
+            lane_scratch(1, 1), lane_scratch(CHUNK, NP), lane_scratch(1, CHUNK),
+            lane_scratch(1, CHUNK), lane_scratch(1, CHUNK), lane_scratch(1, CHUNK),
+            lane_scratch(1, CHUNK), lane_scratch(1, CHUNK), lane_scratch(CHUNK, NP))
+
+
+# --- state in and out of the lanes ---
 @njit(**_INL)
 def _lane_load(Sv, U, D, th, bad, l, NP):
     """Lane l ← the flat state Sv = [θ | U by columns | D] (p = 1)."""
-    o = NP
     for j in range(NP):
         th[0, j, l] = Sv[j]
-        D[0, j, l] = Sv[o + NP * NP + j]
+        D[0, j, l] = Sv[NP + NP * NP + j]
         for i in range(j):
-            U[i, j, l] = Sv[o + j * NP + i]
+            U[i, j, l] = Sv[NP + j * NP + i]
     bad[0, 0, l] = -1.0
 
 
 @njit(**_INL)
 def _lane_store(Sv, U, D, th, l, NP):
     """The flat state Sv ← lane l (θ, the strict upper triangle of U, D)."""
-    o = NP
     for j in range(NP):
         Sv[j] = th[0, j, l]
-        Sv[o + NP * NP + j] = D[0, j, l]
+        Sv[NP + NP * NP + j] = D[0, j, l]
         for i in range(j):
-            Sv[o + j * NP + i] = U[i, j, l]
+            Sv[NP + j * NP + i] = U[i, j, l]
 
 
-@njit(**_INL)
-def _constant(a):
-    """The per-sample array is one broadcast value (all strides 0)."""
-    for st in a.strides:
-        if st != 0:
-            return False
-    return a.size > 0
-
-
-# --------------------------------------------------------------------------
-# the per-sample λ and w, lane-major
-# --------------------------------------------------------------------------
+# --- the per-sample λ and w, lane-major ---
 @njit(**_INL)
 def _reciprocal(a, first):
-    """1/a[first] when the per-sample array a is one broadcast value, else NaN."""
-    return 1.0 / a[first] if _constant(a) else np.nan
+    """1/a[first] if the per-sample array a is one broadcast value (strides 0), else NaN."""
+    const = a.size > 0
+    for st in a.strides:
+        const &= st == 0
+    return 1.0 / a[first] if const else np.nan
 
 
 @njit(**_INL)
@@ -266,9 +256,7 @@ def _aux_lane(Lc, Wc, Rc, t, l, lk, wk, il0, r0):
     Rc[0, t, l] = r0 if r0 == r0 else 1.0 / wk
 
 
-# --------------------------------------------------------------------------
-# batched: blocks of consecutive streams
-# --------------------------------------------------------------------------
+# --- batched: blocks of consecutive streams ---
 @njit(**_INL)
 def _batched_gather(Phi, Y, lam, w, s0, nl, k0, T, X, Yc, Lc, Wc, Rc, il0, r0, NP):
     """Samples k0 … k0+T−1 of the block's streams into the lane-major scratch.
@@ -292,18 +280,7 @@ def _batched_gather(Phi, Y, lam, w, s0, nl, k0, T, X, Yc, Lc, Wc, Rc, il0, r0, N
 
 @njit(**_INL)
 def _batched_block(S, Phi, Y, lam, w, Th, E, skipped, codes, s0, dthr, il0, r0, NP):
-    U = lane_scratch(NP, NP)
-    D = lane_scratch(1, NP)
-    th = lane_scratch(1, NP)
-    bad = lane_scratch(1, 1)
-    X = lane_scratch(CHUNK, NP)
-    Yc = lane_scratch(1, CHUNK)
-    Lc = lane_scratch(1, CHUNK)
-    Wc = lane_scratch(1, CHUNK)
-    Rc = lane_scratch(1, CHUNK)
-    Ec = lane_scratch(1, CHUNK)
-    Sk = lane_scratch(1, CHUNK)
-    Thc = lane_scratch(CHUNK, NP)
+    U, D, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc = _block_scratch(NP)
     nl = min(LANES, S.shape[0] - s0)
     N = Phi.shape[1]
     store = Th.shape[1] == N
@@ -341,9 +318,7 @@ def rls_soa_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag
                        NP)
 
 
-# --------------------------------------------------------------------------
-# segments: sorted by length, dealt to blocks
-# --------------------------------------------------------------------------
+# --- segments: sorted by length, dealt to blocks ---
 @njit(**_INL)
 def _segment_gather(Phi, Y, lam, w, sa, sn, k0, T, X, Yc, Lc, Wc, Rc, il0, r0, NP):
     """Samples k0 … k0+T−1 of the lanes' segments (rows sa[l] …, sn[l] of them).
@@ -366,18 +341,7 @@ def _segment_gather(Phi, Y, lam, w, sa, sn, k0, T, X, Yc, Lc, Wc, Rc, il0, r0, N
 @njit(**_INL)
 def _segment_block(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, codes, seg, dthr, il0,
                    r0, NP):
-    U = lane_scratch(NP, NP)
-    D = lane_scratch(1, NP)
-    th = lane_scratch(1, NP)
-    bad = lane_scratch(1, 1)
-    X = lane_scratch(CHUNK, NP)
-    Yc = lane_scratch(1, CHUNK)
-    Lc = lane_scratch(1, CHUNK)
-    Wc = lane_scratch(1, CHUNK)
-    Rc = lane_scratch(1, CHUNK)
-    Ec = lane_scratch(1, CHUNK)
-    Sk = lane_scratch(1, CHUNK)
-    Thc = lane_scratch(CHUNK, NP)
+    U, D, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc = _block_scratch(NP)
     store = Th.shape[0] == Phi.shape[0]
     sa = np.zeros(LANES, dtype=np.int64)  # first row and length of each lane's segment
     sn = np.zeros(LANES, dtype=np.int64)

@@ -554,7 +554,7 @@ class RecursiveEstimator:
         Th, E, skipped = self._alloc(shape_N, store)
         Lk = np.empty(shape_N if self._reports else (shape_N[0], 0))
         codes = np.empty(shape_N[0], dtype=np.int64)
-        kern = self._soa_entry("batched", shape_N[0]) or self._kern.run_batched
+        kern = self._soa_entry("batched", shape_N[0], store) or self._kern.run_batched
         kern(S, Phi, Y, lam, w, Th, E, skipped, Lk, self._opt, self._mat, codes, self._ntag,
              self._ptag)
         self._raise_if_skipped(skipped, Phi, Y, None)  # S is a copy: nothing to restore
@@ -603,7 +603,7 @@ class RecursiveEstimator:
         lam = self._lam_run(None, Phi.shape[:1])
         Lk = np.empty(N if self._reports else 0)
         status = np.empty(G, dtype=np.int64)
-        kern = self._soa_entry("segments", G) or self._kern.run_segments
+        kern = self._soa_entry("segments", G, store) or self._kern.run_segments
         kern(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, self._opt, self._mat, status,
              self._ntag, self._ptag)
         n_skip = np.empty(G, dtype=np.int64)
@@ -622,12 +622,13 @@ class RecursiveEstimator:
                              n_skipped=n_skip, sse=sse, error=E, skipped=skipped,
                              theta_track=Th, offsets=off, status=status)
 
-    def _soa_entry(self, what, count):
+    def _soa_entry(self, what, count, store=False):
         """The structure-of-arrays kernel (:mod:`adaptid._kernels._soa`, bit for bit the
         same results, several streams per vector instruction) when it pays: plain RLS
         (its kernels, no strategy), one output, n specialised and <= ``MAX_N``, at least
-        ``MIN_STREAMS`` streams or segments. Else None (the algorithm's own kernel)."""
-        if self._kern is not _kernels.RLS or self._ptag != (0,) or \
+        ``MIN_STREAMS`` streams or segments, θ not stored per sample (its scatter made
+        the lane kernels slower than the scalar ones). Else None (the algorithm's own)."""
+        if store or self._kern is not _kernels.RLS or self._ptag != (0,) or \
                 not isinstance(self._ntag, tuple):
             return None
         from .._kernels import _soa
