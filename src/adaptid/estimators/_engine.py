@@ -728,8 +728,13 @@ class RecursiveEstimator:
         Th, E, skipped = self._alloc(shape_N, store or want)
         Lk = np.empty(shape_N if self._reports or self._diffuse else (shape_N[0], 0))
         codes = np.empty(shape_N[0], dtype=np.int64)
-        self._kern.run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt, self._mat,
-                               codes, self._ntag, self._ptag)
+        soa = self._soa_entry("batched", shape_N[0], store or St is not None)
+        if soa is not None:  # same results; its signature has no statistics output
+            soa(S, Phi, Y, lam, w, Th, E, skipped, Lk, self._opt, self._mat, codes, self._ntag,
+                self._ptag)
+        else:
+            self._kern.run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt,
+                                   self._mat, codes, self._ntag, self._ptag)
         self._raise_if_skipped(skipped, Phi, Y, None)  # S is a copy: nothing to restore
         self._S, self._batch = S, shape_N[0]
         self._count(skipped)
@@ -784,9 +789,13 @@ class RecursiveEstimator:
         lam = self._lam_run(None, Phi.shape[:1])
         Lk = np.empty(N if self._reports or self._diffuse else 0)
         status = np.empty(G, dtype=np.int64)
-        self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, None,
-                                self._opt,
-                                self._mat, status, self._ntag, self._ptag)
+        soa = self._soa_entry("segments", G, store)
+        if soa is not None:
+            soa(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, self._opt, self._mat, status,
+                self._ntag, self._ptag)
+        else:
+            self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, None,
+                                    self._opt, self._mat, status, self._ntag, self._ptag)
         n_skip = np.empty(G, dtype=np.int64)
         sse = np.empty((G, E.shape[1]))
         segment_stats(E, skipped, off, n_skip, sse)
@@ -804,6 +813,20 @@ class RecursiveEstimator:
         return SegmentResult(theta=theta, P=P, n_samples=n_used,
                              n_skipped=n_skip, sse=sse, error=E, skipped=skipped,
                              theta_track=Th, offsets=off, status=status)
+
+    def _soa_entry(self, what, count, store=False):
+        """The structure-of-arrays kernel (:mod:`adaptid._kernels._soa`, bit for bit the
+        same results, several streams per vector instruction) when it pays: plain RLS
+        (its kernels, no strategy), one output, n specialised and <= ``MAX_N``, at least
+        ``MIN_STREAMS`` streams or segments, θ not stored per sample (its scatter made
+        the lane kernels slower than the scalar ones). Else None (the algorithm's own)."""
+        if store or self._kern is not _kernels.RLS or self._ptag != (0,) or \
+                not isinstance(self._ntag, tuple):
+            return None
+        from .._kernels import _soa
+        if self.n_params > _soa.MAX_N or count < _soa.MIN_STREAMS:
+            return None
+        return _soa.rls_soa_batched if what == "batched" else _soa.rls_soa_segments
 
     def _warn_segments(self, status):
         if self._code_is_rebuilds:
