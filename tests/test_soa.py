@@ -104,7 +104,7 @@ def test_windup_codes_equal():
     est = adaptid.RLS(n, P0=1.0, windup_threshold=1e3, nan_policy="skip")
     a = _kernel_args(est, Phi, y, w, lam)
     b = _kernel_args(est, Phi, y, w, lam)
-    _rls.rls_run_batched(*a)
+    _rls.rls_run_batched(*a[:9], None, *a[9:])  # St: no statistics
     _soa.rls_soa_batched(*b)
     for x, z in zip(a, b):
         assert _same(x, z)
@@ -182,7 +182,10 @@ def test_segments_status_equal():
                 w[0], np.empty((0, 2, 1)), np.empty((N, 1)), np.zeros(N, dtype=np.bool_),
                 np.empty(0), est._opt, est._mat, np.empty(G, dtype=np.int64), est._ntag,
                 est._ptag)
-        kern(*args)
+        if kern is _rls.rls_run_segments:
+            kern(*args[:11], None, *args[11:])  # St: no statistics
+        else:
+            kern(*args)
         out.append(args)
     for x, z in zip(*out):
         assert _same(x, z)

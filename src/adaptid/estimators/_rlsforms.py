@@ -183,6 +183,8 @@ class FormsMixin:
             S[n * p:] = block_from_T(T_from_block(S[n * p:], "ud", n), "sqrt")
 
     def _covariance_of(self, S):
+        if self._form == "ud":  # the engine's (it knows the diffuse tail after the factors)
+            return super()._covariance_of(S)
         n, p = self.n_params, self.n_outputs
         return P_from_block(S[..., n * p:], self._form, n)
 
