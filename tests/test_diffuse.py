@@ -422,6 +422,37 @@ def test_cli_fit_P0_diffuse(rng, tmp_path):
     assert res.exit_code == 2 and "--P0" in res.output
 
 
+def test_fleet_P0_diffuse_equals_lstsq_per_device(rng, tmp_path):
+    """adaptid.fleet.identify and `adaptid fleet --P0 diffuse`: per device θ is the
+    least-squares solution of that device's samples (numpy.linalg.lstsq)."""
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from adaptid.cli._app import app
+    from adaptid.fleet import identify
+    frames, want = [], []
+    for dev, n_dev in enumerate((40, 120, 75)):
+        Phi, y = _data(rng, N=n_dev)
+        frames.append(pd.DataFrame({"dev": dev, "a": Phi[:, 0], "b": Phi[:, 1],
+                                    "c": Phi[:, 2], "y": y}))
+        want.append(_lstsq(Phi, y))
+    df = pd.concat(frames, ignore_index=True)
+    out = identify(df, group="dev", y="y", phi=["a", "b", "c"], method="rls", P0="diffuse")
+    out = out.compute() if hasattr(out, "compute") else out
+    np.testing.assert_allclose(out[["a", "b", "c"]].to_numpy(), np.array(want), rtol=1e-10)
+    path = tmp_path / "fleet.csv"
+    df.to_csv(path, index=False, float_format="%.17g")
+    res = CliRunner().invoke(app, ["fleet", str(path), "--group", "dev", "--y", "y",
+                                   "--phi", "a,b,c", "--P0", "diffuse", "-o",
+                                   str(tmp_path / "out.csv")])
+    assert res.exit_code == 0, res.output
+    got = pd.read_csv(tmp_path / "out.csv")
+    np.testing.assert_allclose(got[["a", "b", "c"]].to_numpy(), np.array(want), rtol=1e-10)
+    res = CliRunner().invoke(app, ["fleet", str(path), "--group", "dev", "--y", "y",
+                                   "--phi", "a,b,c", "--P0", "difuse"])
+    assert res.exit_code == 2 and "--P0" in res.output
+
+
 def test_arx_fit_recursive_diffuse(rng):
     """ARX (A(q)y = B(q)u + e; φ_k = [-y_{k-1}, -y_{k-2}, u_{k-1}], the model's documented
     convention) with a diffuse RLS core: θ is lstsq on the same regressors built here."""

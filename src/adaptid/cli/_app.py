@@ -345,7 +345,8 @@ def fleet(
     window: Annotated[Optional[int], typer.Option("--window", help="Window length M.")] = None,
     process_cov: Annotated[Optional[float], typer.Option("--process-cov", help="R1 (kalman).")] = None,
     noise_var: Annotated[Optional[float], typer.Option("--noise-var", help="R2 (kalman).")] = None,
-    p0: Annotated[Optional[float], typer.Option("--P0", help="Prior covariance P0·I.")] = None,
+    p0: Annotated[Optional[str], typer.Option("--P0", help="Prior covariance P0·I, or "
+                                              "'diffuse' (exact diffuse start).")] = None,
     step: Annotated[Optional[float], typer.Option("--step", help="Adaptation gain μ (lms, nlms).")] = None,
     eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε (nlms).")] = None,
     alpha: Annotated[float, typer.Option("--alpha", help="Level of the change test: the fleet's "
@@ -383,9 +384,10 @@ def fleet(
 
         if method.strip().lower() not in METHODS:
             raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}")
-        from ._engine import check_gradient, check_ranges
+        from ._engine import check_gradient, check_ranges, parse_P0
         from ._fleet import check_outputs, fleet_command, summary_text, write_result
 
+        p0 = parse_P0(p0)
         check_ranges(forgetting=forgetting, P0=p0, process_cov=process_cov, noise_var=noise_var)
         check_gradient(method.strip().lower(), step, eps, p0)
         tests = {t.lower(): t for t in ("supF", "re", "cusum", "cusum2", "a-priori")}
