@@ -392,8 +392,9 @@ def test_factory_and_errors():
         RLS(3, forgetting=0.99, P_max=1e3, P0="diffuse")
     with pytest.raises(ValueError, match="theta0 must be"):
         RLS(3, theta0=[1.0, 0.0, 0.0], P0="diffuse")
-    with pytest.raises(ValueError, match="estimator"):
-        RLS(3, P0="diffuse").kernel_settings()
+    ks = RLS(3, P0="diffuse").kernel_settings()  # the models' recursions read the tail
+    assert ks.diffuse_state.tolist() == [0.0] * (1 + 9 + 3)  # [flag, R, z]: no information
+    assert RLS(3).kernel_settings().diffuse_state is None
     assert RLS(3).identified and RLS(3).diffuse is False
 
 

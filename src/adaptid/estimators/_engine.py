@@ -913,18 +913,18 @@ class RecursiveEstimator:
             ``method`` ("rls", "window", "kalman"), ``forgetting`` (constant λ,
             1.0 under a strategy), ``strategy_mode`` (−1: none or exponential
             without ``P_max``), ``strategy_params``, ``P_max`` (inf: none),
-            ``window`` (0: none), ``process_cov``, ``noise_var``.
+            ``window`` (0: none), ``process_cov``, ``noise_var``;
+            ``diffuse_state``: None with a finite prior, else a copy of the
+            diffuse tail of the state (``adaptid._kernels._diffuse``).
         """
         from ._settings import KernelSettings
         self._check_single("kernel_settings")
-        if self._diffuse:
-            raise param_error("estimator", "an estimator with a finite P0 for this recursion "
-                              "(P0='diffuse' is not supported by the pseudo-linear "
-                              "recursions of adaptid.models)", "<P0='diffuse'>")
         n, p = self.n_params, self.n_outputs
         U, D = self._ud_views(self._S)
         theta = self._S[: n * p].reshape(n, p).copy()
-        return KernelSettings.of(self, theta, np.array(U), np.array(D))
+        tail = self._S[self._S.shape[0] - self._diffuse_tail():].copy() if self._diffuse \
+            else None
+        return KernelSettings.of(self, theta, np.array(U), np.array(D), tail)
 
     @classmethod
     def from_state(cls, state: dict):

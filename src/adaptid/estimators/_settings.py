@@ -24,9 +24,10 @@ class KernelSettings:
     window: int = 0
     process_cov: np.ndarray = None
     noise_var: float = 1.0
+    diffuse_state: np.ndarray = None
 
     @classmethod
-    def of(cls, est, theta, U, D):
+    def of(cls, est, theta, U, D, diffuse_state=None):
         method = type(est)._method
         n = est.n_params
         kw = {}
@@ -47,4 +48,4 @@ class KernelSettings:
                     kw["P_max"] = np.inf if est.P_max is None else float(est.P_max)
         kw.setdefault("strategy_params", np.zeros(1))
         kw.setdefault("process_cov", np.zeros((n, n)))
-        return cls(method=method, theta=theta, U=U, D=D, **kw)
+        return cls(method=method, theta=theta, U=U, D=D, diffuse_state=diffuse_state, **kw)

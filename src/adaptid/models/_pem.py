@@ -7,7 +7,7 @@ import numpy as np
 
 from .._lazy import lazy
 from ._polymodel import _PolyModel
-from ._recursive import run_signals, signal_spec
+from ._recursive import regressors_used, run_signals, signal_spec
 
 signal = lazy("scipy.signal")
 optimize = lazy("scipy.optimize")
@@ -126,6 +126,14 @@ class _PseudoLinearModel(_PolyModel):
             :mod:`adaptid.forgetting` or ``P_max``: its step is then the one
             :class:`~adaptid.RLS` takes, and ``Trajectory.forgetting`` holds
             the λₖ applied. Default: RLS with θ₀ = 0, P₀ = 10⁴ I, no forgetting.
+            With ``P0="diffuse"`` (RLS, KalmanRLS, a fresh SlidingWindowRLS)
+            the start is exact: until the regressors formed so far have full
+            rank θ is the minimum-norm least-squares solution on them (the
+            diffuse Kalman filter's estimate for KalmanRLS) and
+            ``Trajectory.identified`` is False; from then on θ is the exact
+            (forgotten or windowed) least-squares solution on the regressors
+            the recursion formed, with no prior term (``P`` is inf while
+            not identified).
         refine : bool
             Follow with the prediction-error refinement (see :meth:`fit`).
 
@@ -133,13 +141,17 @@ class _PseudoLinearModel(_PolyModel):
         -------
         Trajectory
             Row i is the estimate after row i of the regression (sample
-            ``meta["index"][i]``); ``error`` the a-priori errors. The model
+            ``meta["index"][i]``); ``error`` the a-priori errors;
+            ``meta["regressors"]`` (N, d) the regressor rows the recursion
+            formed (fixed columns, then the lagged signals). The model
             takes the final estimate; ``cov`` is the prediction-error
             covariance at it.
         """
         reg, Phi_fix = self._prepare(y, u)
-        Th, E, V, theta, P, Lk, n_rebuilds = run_signals(
-            Phi_fix, reg.y, self._signal_spec(Phi_fix.shape[1]), estimator)
+        Ik = np.empty(reg.y.shape[0])
+        spec = self._signal_spec(Phi_fix.shape[1])
+        Th, E, V, theta, P, Lk, n_rebuilds = run_signals(Phi_fix, reg.y, spec, estimator, Ik)
+        diffuse = bool(getattr(estimator, "diffuse", False))
         theta = self._stable(theta)
         if refine:
             theta = self._refine(theta, Phi_fix, reg.y)
@@ -147,8 +159,10 @@ class _PseudoLinearModel(_PolyModel):
         self.P = P
         import dataclasses
 
-        return dataclasses.replace(self._trajectory(Th, E, reg.index, self.names, Lk),
-                                   n_rebuilds=n_rebuilds)
+        traj = self._trajectory(Th, E, reg.index, self.names, Lk)
+        traj.meta["regressors"] = regressors_used(Phi_fix, V, spec)
+        return dataclasses.replace(traj, n_rebuilds=n_rebuilds,
+                                   identified=(Ik != 0.0) if diffuse else None)
 
     @staticmethod
     def _filt(den, X):

@@ -10,21 +10,27 @@ from .._exceptions import DefinitenessLossWarning
 from .._validation import param_error
 from .._kernels._pseudolinear import pseudolinear_run
 
-__all__ = ["estimator_settings", "run_pseudolinear", "run_signals", "signal_spec"]
+__all__ = ["estimator_settings", "regressors_used", "run_pseudolinear", "run_signals",
+           "signal_spec"]
 
 
 def estimator_settings(estimator, n):
-    """(λ, Q, kalman, r2, M, θ, U, D, strategy) from an RLS / SlidingWindowRLS /
-    KalmanRLS (or defaults); strategy = (mode, params, P_max), mode −1 for none.
+    """(λ, Q, kalman, r2, M, θ, U, D, strategy, diffuse) from an RLS /
+    SlidingWindowRLS / KalmanRLS (or defaults); strategy = (mode, params,
+    P_max), mode −1 for none; diffuse = (state, rank tolerance), the state
+    empty for a finite prior.
 
     The estimator is read, never modified: its current θ and U-D factors are
     the starting point (θ₀, P₀ for a fresh one), its options the algorithm.
+    With ``P0="diffuse"`` the diffuse part of its state is the starting
+    point too (RLS, Kalman); a diffuse window must be fresh (its buffer is
+    not carried over).
     """
     from ..estimators import KalmanRLS, RLS, SlidingWindowRLS
 
     if estimator is None:
         return (1.0, np.zeros((n, n)), False, 1.0, 0, np.zeros(n), np.eye(n), np.full(n, 1e4),
-                (-1, np.zeros(1), np.inf))
+                (-1, np.zeros(1), np.inf), (np.zeros(0), 0.0))
     if not isinstance(estimator, (RLS, SlidingWindowRLS, KalmanRLS)):
         raise param_error("estimator", "None or an adaptid RLS, SlidingWindowRLS or KalmanRLS",
                           estimator, exc=TypeError)
@@ -41,7 +47,24 @@ def estimator_settings(estimator, n):
     strategy = (ks.strategy_mode, np.asarray(ks.strategy_params, dtype=np.float64), ks.P_max)
     kalman = ks.method == "kalman"
     return (ks.forgetting, np.ascontiguousarray(ks.process_cov), kalman, ks.noise_var,
-            ks.window, theta, U, D, strategy)
+            ks.window, theta, U, D, strategy, _diffuse_settings(estimator, ks))
+
+
+def _diffuse_settings(estimator, ks):
+    """(diffuse state for the kernel, rank tolerance); an empty state for a finite prior."""
+    from .. import _config
+
+    if ks.diffuse_state is None:
+        return np.zeros(0), 0.0
+    if ks.method == "kalman":
+        return np.array(ks.diffuse_state), _config.DIFFUSE_KALMAN_TOL
+    if ks.method == "window":
+        if estimator.n_updates or estimator.n_skipped:
+            raise param_error("estimator", "a fresh SlidingWindowRLS (reset()) with "
+                              "P0='diffuse' (the recursion keeps its own window buffer)",
+                              f"<a diffuse window after {estimator.n_updates} updates>")
+        return np.zeros(1), _config.DIFFUSE_RCOND
+    return np.array(ks.diffuse_state), _config.DIFFUSE_RCOND
 
 
 def signal_spec(groups, alpha, beta, sgn, n):
@@ -64,7 +87,7 @@ def run_pseudolinear(Phi_fix, Y, groups, alpha, beta, sgn, estimator):
     return run_signals(Phi_fix, Y, signal_spec(groups, alpha, beta, sgn, n), estimator)[:6]
 
 
-def run_signals(Phi_fix, Y, spec, estimator):
+def run_signals(Phi_fix, Y, spec, estimator, identified=None):
     """One compiled RELS / PLR pass; returns (Th, E, V, theta, P, Lk, n_rebuilds).
 
     Lk holds the λₖ a forgetting strategy applied (None without one).
@@ -73,15 +96,20 @@ def run_signals(Phi_fix, Y, spec, estimator):
     :func:`pseudolinear_run`). A sliding window whose removal would lose
     definiteness is re-solved from its buffer (``n_rebuilds`` counts them,
     with one :class:`DefinitenessLossWarning`), as
-    :class:`~adaptid.SlidingWindowRLS` does.
+    :class:`~adaptid.SlidingWindowRLS` does. With an estimator with
+    ``P0="diffuse"`` the start is exact (see :mod:`adaptid._kernels._pseudolinear`);
+    ``identified``, an optional (N,) float array, then receives per sample
+    1.0 once the data determine θ (0.0 before; P is inf while not identified).
     """
     from .._config import DOWNDATE_RTOL
 
     alpha, mix, dyn_group, dyn_lag, dyn_sgn = spec
     nd = np.asarray(dyn_group).shape[0]
     n = Phi_fix.shape[1] + nd
-    lam, Q, kalman, r2, M, theta, U, D, (mode, fp, pmax) = estimator_settings(estimator, n)
+    lam, Q, kalman, r2, M, theta, U, D, (mode, fp, pmax), (dif, dtol) = \
+        estimator_settings(estimator, n)
     N = Y.shape[0]
+    Ik = np.empty(N) if identified is None else identified
     G = np.asarray(alpha).shape[0]
     Th = np.empty((N, n))
     E = np.empty(N)
@@ -95,7 +123,7 @@ def run_signals(Phi_fix, Y, spec, estimator):
                               np.ascontiguousarray(dyn_lag, dtype=np.int64),
                               np.ascontiguousarray(dyn_sgn, dtype=np.float64),
                               theta, U, D, lam, Q, kalman, r2, M, DOWNDATE_RTOL, mode, fp, pmax,
-                              Th, E, V, Lk)
+                              Th, E, V, Lk, dif, dtol, Ik)
     if status < 0:
         raise FloatingPointError("the Kalman time update P + Q lost positive definiteness "
                                  "(P overflowed?)")
@@ -105,4 +133,18 @@ def run_signals(Phi_fix, Y, spec, estimator):
                       "buffer of the regressors used (poorly excited window?)",
                       DefinitenessLossWarning, stacklevel=3)
     P = (U * D) @ U.T
+    if dif.shape[0] and dif[0] == 0.0:
+        P = np.full((n, n), np.inf)
     return (Th, E, V, theta, 0.5 * (P + P.T), (Lk if mode >= 0 else None), int(status))
+
+
+def regressors_used(Phi_fix, V, spec):
+    """The regressor rows the recursion formed: ``Phi_fix`` followed by the dynamic
+    columns ``dyn_sgn[j] * V[k - dyn_lag[j], dyn_group[j]]`` (0 before the first row)."""
+    alpha, mix, dyn_group, dyn_lag, dyn_sgn = spec
+    N = V.shape[0]
+    dyn = np.zeros((N, np.asarray(dyn_group).shape[0]))
+    for j, (g, lag, sg) in enumerate(zip(dyn_group, dyn_lag, dyn_sgn)):
+        if lag < N:
+            dyn[lag:, j] = sg * V[:N - lag, g]
+    return np.hstack([Phi_fix, dyn])
