@@ -4,8 +4,9 @@ Oracles: statsmodels ``RollingOLS`` / ``RollingWLS`` (statsmodels/regression/
 rolling.py, 0.14+), and direct (weighted, ridge) least squares solved here with
 ``numpy.linalg.lstsq``; neither shares code with the compiled recursion.
 
-Tolerance. Until the exact diffuse start lands the estimators carry a ridge
-prior: with ``P0 = 1e12`` and regressors of order 1 over windows of M ≥ 25
+Tolerance. With a finite P0 the estimators carry a ridge prior (the tests
+with ``P0="diffuse"`` at the end have none and use 1e-10): with ``P0 = 1e12``
+and regressors of order 1 over windows of M ≥ 25
 samples the prior changes θ, P and the statistics by about
 1e-12 · ‖θ‖² / (M σ²) relative, i.e. 1e-12 … 1e-13. The recursion itself
 adds and removes O(σ²) terms to sums of size M σ², so its rounding grows like
@@ -270,3 +271,148 @@ def test_store_false_still_gives_the_statistics():
     b = adaptid.SlidingWindowRLS(4, 20, P0=P0).run(X, y, stats=True, store=False)
     assert b.theta.shape[0] == 0
     np.testing.assert_array_equal(a.stats.tvalues, b.stats.tvalues)
+
+
+# ------------------------------------------------ exact diffuse start (P0="diffuse")
+# No prior term: the statistics are those of the window (or of all samples so far)
+# alone, so statsmodels' RollingOLS / RollingWLS and the lstsq oracle are matched to
+# rounding. Tolerance 1e-10: observed ≤ 1e-14 relative (κ(Φ) < 10, N ≤ 300); the
+# ridge of P0 = 1e12 would move them by ~1e-12 (above), a wrong formula by ≥ 1e-2.
+RTOL_DIFFUSE = 1e-10
+
+
+def _close_exact(a, b, nobs, name):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    atol = RTOL_DIFFUSE * 10 * np.max(nobs) if name in ("llf", "aic", "bic") else 0.0
+    np.testing.assert_allclose(a, b, rtol=RTOL_DIFFUSE, atol=atol, err_msg=name)
+
+
+def _compare_exact(stats, theta, res, rows):
+    nobs = np.asarray(res.nobs)[rows]
+    np.testing.assert_array_equal(stats.nobs[rows], nobs)
+    _close_exact(theta[rows], np.asarray(res.params)[rows], nobs, "params")
+    for f in FIELDS:
+        _close_exact(getattr(stats, f)[rows], np.asarray(getattr(res, SM_NAME.get(f, f)))[rows],
+                     nobs, f)
+
+
+def _nan_before_identified(tr, n):
+    """Before full rank (the first n − 1 samples here) every fit statistic is NaN,
+    as RollingOLS is below its min_nobs = n; at nobs = n there are no degrees of
+    freedom: σ̂² and what uses it NaN (statsmodels: ssr/0 = inf), ssr ≈ 0."""
+    st = tr.stats
+    assert not tr.identified[:n - 1].any() and tr.identified[n - 1]
+    for f in FIELDS:
+        assert np.isnan(getattr(st, f)[:n - 1]).all(), f
+    assert np.isnan(st.sigma2[n - 1]) and np.isnan(st.stderr[n - 1]).all()
+    assert abs(st.ssr[n - 1]) < 1e-20 * st.uncentered_tss[n - 1]
+
+
+@pytest.mark.filterwarnings("ignore:divide by zero:RuntimeWarning",
+                            "ignore:invalid value:RuntimeWarning")
+@pytest.mark.parametrize("const", [True, False])
+def test_diffuse_window_equals_rolling_ols(const):
+    X, y = _data(const=const)
+    M = 40
+    tr = adaptid.SlidingWindowRLS(4, M, P0="diffuse").run(X, y, stats=True)
+    res = sm_rolling.RollingOLS(y, X, window=M).fit()
+    _compare_exact(tr.stats, tr.theta, res, slice(M - 1, None))
+    # (statsmodels divides by nobs − n = 0 at row 3: the warnings filtered above)
+    exp = sm_rolling.RollingOLS(y, X, window=M, expanding=True).fit()
+    _compare_exact(tr.stats, tr.theta, exp, slice(4, M))  # filling up: nobs 5 … M
+    _nan_before_identified(tr, 4)
+
+
+def test_diffuse_window_equals_rolling_wls():
+    X, y = _data(seed=1)
+    w = np.random.default_rng(2).uniform(0.2, 3.0, X.shape[0])
+    M = 35
+    tr = adaptid.SlidingWindowRLS(4, M, P0="diffuse").run(X, y, weights=w, stats=True)
+    res = sm_rolling.RollingWLS(y, X, window=M, weights=w).fit()
+    _compare_exact(tr.stats, tr.theta, res, slice(M - 1, None))
+
+
+@pytest.mark.filterwarnings("ignore:divide by zero:RuntimeWarning",
+                            "ignore:invalid value:RuntimeWarning")
+@pytest.mark.parametrize("lam", [0.97, 1.0])
+def test_diffuse_rls_against_weighted_lstsq(lam):
+    """All samples so far with weights λ^{k−i} w_i, no prior (the oracle's prior rows
+    are zero: p0 = inf); λ = 1 without weights is RollingOLS with an expanding window."""
+    X, y = _data(N=250, seed=5)
+    w = np.random.default_rng(6).uniform(0.5, 2.0, 250)
+    tr = adaptid.RLS(4, forgetting=lam, P0="diffuse").run(X, y, weights=w, stats=True)
+    for k in (4, 8, 60, 249):
+        c = lam ** np.arange(k, -1, -1.0)
+        ref = _direct(X[:k + 1], y[:k + 1], c, w[:k + 1], 4, p0=np.inf)
+        assert tr.stats.nobs[k] == k + 1
+        _close_exact(tr.stats.n_eff[k], ref["n_eff"], k + 1, "n_eff")
+        _close_exact(tr.theta[k], ref["theta"], k + 1, "theta")
+        for f in FIELDS:
+            _close_exact(getattr(tr.stats, f)[k], ref[f], k + 1, f)
+    _nan_before_identified(tr, 4)
+    if lam == 1.0:
+        tr = adaptid.RLS(4, P0="diffuse").run(X, y, stats=True)
+        exp = sm_rolling.RollingOLS(y, X, window=250, expanding=True).fit()
+        _compare_exact(tr.stats, tr.theta, exp, slice(4, None))
+
+
+def test_diffuse_window_losing_rank_is_nan_then_exact_again():
+    """Column 3 is zero on samples 60…99, longer than the window: those windows are
+    rank-deficient (not identified, NaN statistics; RollingOLS gives a pseudo-inverse
+    fit there, not compared); the windows around are exact least squares."""
+    X, y = _data(N=160, seed=12)
+    X[60:100, 3] = 0.0
+    M = 25
+    with pytest.warns(adaptid.DefinitenessLossWarning):
+        tr = adaptid.SlidingWindowRLS(4, M, P0="diffuse").run(X, y, stats=True)
+    lost = np.arange(60 + M - 1, 100)
+    assert not tr.identified[lost].any() and tr.identified[100:].all()
+    for f in FIELDS:
+        assert np.isnan(getattr(tr.stats, f)[lost]).all(), f
+    for k in (40, 70, 100, 110, 159):
+        a = k + 1 - M
+        ref = _direct(X[a:k + 1], y[a:k + 1], np.ones(M), np.ones(M), 4, p0=np.inf)
+        _close_exact(tr.theta[k], ref["theta"], M, "theta")
+        for f in FIELDS:
+            _close_exact(getattr(tr.stats, f)[k], ref[f], M, f)
+
+
+def test_diffuse_stats_resume_across_runs():
+    X, y = _data(N=100, seed=13)
+    for make in (lambda: adaptid.RLS(4, forgetting=0.98, P0="diffuse"),
+                 lambda: adaptid.SlidingWindowRLS(4, 20, P0="diffuse")):
+        one = make().run(X, y, stats=True).stats
+        est = make()
+        a = est.run(X[:2], y[:2], stats=True).stats  # ends in the diffuse phase
+        b = est.run(X[2:], y[2:], stats=True).stats
+        for f in FIELDS:
+            np.testing.assert_allclose(np.concatenate([getattr(a, f), getattr(b, f)]),
+                                       getattr(one, f), rtol=1e-13, atol=0, err_msg=f)
+
+
+def test_diffuse_batched_equals_one_stream_at_a_time():
+    X, y = _data(N=80, seed=14)
+    Xb = np.stack([X, X[::-1]])
+    yb = np.stack([y, y[::-1]])
+    for make in (lambda: adaptid.RLS(4, forgetting=0.99, P0="diffuse"),
+                 lambda: adaptid.SlidingWindowRLS(4, 25, P0="diffuse")):
+        sb = make().run_batched(Xb, yb, stats=True).stats
+        for s in range(2):
+            one = make().run(Xb[s], yb[s], stats=True).stats
+            for f in FIELDS:
+                np.testing.assert_allclose(getattr(sb, f)[s], getattr(one, f), rtol=1e-13,
+                                           atol=0, err_msg=f)
+
+
+def test_diffuse_skipped_samples_in_the_diffuse_phase():
+    X, y = _data(N=60, seed=15)
+    Xn = X.copy()
+    Xn[1, 2] = np.nan
+    for make in (lambda: adaptid.RLS(4, P0="diffuse", nan_policy="skip"),
+                 lambda: adaptid.SlidingWindowRLS(4, 20, P0="diffuse", nan_policy="skip")):
+        st = make().run(Xn, y, stats=True).stats
+        ref = make().run(np.delete(X, 1, 0), np.delete(y, 1), stats=True).stats
+        assert st.nobs[1] == st.nobs[0] == 1
+        for f in FIELDS:  # the row of the skipped sample repeats the one before
+            np.testing.assert_allclose(getattr(st, f)[2:], getattr(ref, f)[1:], rtol=1e-12,
+                                       atol=0, err_msg=f)

@@ -41,6 +41,13 @@ State tails (after the estimator's ordinary state): RLS ``[flag, R (n·n), z
 sample (``Trajectory.identified``). Entry points as in :mod:`._rls`, with
 ``opt`` extended by the rank tolerance.
 
+Windowed statistics (``St`` an array, :mod:`._rollstats`): the RLS prologue
+adds to the minimised cost J the square of what the rotations leave of each
+row (exact, no prior term, from full rank on); the window's rows of the
+diffuse phase and after each re-solve are computed directly from the buffer,
+the window's prior slot (unused by a diffuse window) read as D₀ = ∞ meanwhile
+(no prior term). Rows before identification are NaN-masked by the caller.
+
 References: G. J. Bierman, *Factorization Methods for Discrete Sequential
 Estimation*, 1977, ch. V–VI (SRIF); J. Durbin, S. J. Koopman, *Time Series
 Analysis by State Space Methods*, 2nd ed., 2012, §5.2 (exact initial Kalman
@@ -56,6 +63,7 @@ from ._bierman import NONPOSITIVE, SKIPPED, _finite_row, _one_sample, _prior_err
 from ._dims import dim
 from ._kalman import _kalman_stream
 from ._rls import _rls_stream
+from ._rollstats import rows_from, srif_hook, sub, window_direct_hook, window_end_hook
 from ._window import _window_stream_flat, _window_views
 
 
@@ -159,7 +167,7 @@ def _rest(Th, k, N):
 
 # ---------------------------------------------------------------------- RLS
 @njit(**NJIT)
-def _rls_prologue(S, Phi, Y, lam, w, Th, E, skipped, Lk, rcond, NP, p):
+def _rls_prologue(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, rcond, NP, p):
     """The samples of the diffuse phase; returns the index of the first one after it."""
     o = NP * p + NP * NP + NP
     R = S[o + 1:o + 1 + NP * NP].reshape((NP, NP))
@@ -171,8 +179,11 @@ def _rls_prologue(S, Phi, Y, lam, w, Th, E, skipped, Lk, rcond, NP, p):
     store = Th.shape[0] == N
     k = 0
     while k < N and S[o] == 0.0:
-        if _finite_row(Phi[k], Y[k], NP, p):
+        ok = _finite_row(Phi[k], Y[k], NP, p)
+        if ok:
             _prior_errors(theta, Phi[k], Y[k], E[k], NP, p)
+            for j in range(p):
+                ry[j] = 0.0
             sl = np.sqrt(lam[k])
             if sl != 1.0:
                 for i in range(NP):
@@ -189,6 +200,7 @@ def _rls_prologue(S, Phi, Y, lam, w, Th, E, skipped, Lk, rcond, NP, p):
             skipped[k] = True
             for j in range(p):
                 E[k, j] = np.nan
+        srif_hook(St, k, ok, Y, lam, w[k], ry, U, D, NP, p)  # nothing when St is None
         Lk[k] = S[o]
         if store:
             _store(Th, k, theta, NP, p)
@@ -197,15 +209,15 @@ def _rls_prologue(S, Phi, Y, lam, w, Th, E, skipped, Lk, rcond, NP, p):
 
 
 @njit(**NJIT_INLINE)
-def _rls_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, dthr, rcond, NP, p):
+def _rls_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, dthr, rcond, NP, p):
     N = Phi.shape[0]
-    k = _rls_prologue(S, Phi, Y, lam, w, Th, E, skipped, Lk, rcond, NP, p)
+    k = _rls_prologue(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, rcond, NP, p)
     for i in range(k, N):
         Lk[i] = 1.0
     if k == N:
         return -1
     bad = _rls_stream(S, Phi[k:], Y[k:], lam[k:], w[k:], _rest(Th, k, N), E[k:],
-                      skipped[k:], None, dthr, NP, p)
+                      skipped[k:], rows_from(St, k), dthr, NP, p)
     return bad + k if bad >= 0 else -1
 
 
@@ -214,8 +226,8 @@ def rls_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
     """One step of diffuse RLS through the same code as :func:`rls_diffuse_run`."""
     NP = dim(ntag)
     Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _rls_diffuse_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, opt[0], opt[1], NP,
-                              dim(ptag))
+    bad = _rls_diffuse_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, None, opt[0], opt[1],
+                              NP, dim(ptag))
     if skipped[0]:
         return SKIPPED
     return NONPOSITIVE if bad >= 0 else 0
@@ -224,7 +236,7 @@ def rls_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 @njit(**NJIT)
 def rls_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N steps of diffuse RLS; ``opt = [windup threshold, rcond]``; code as :func:`._rls.rls_run`."""
-    return _rls_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt[0], opt[1],
+    return _rls_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt[0], opt[1],
                                dim(ntag), dim(ptag))
 
 
@@ -235,7 +247,7 @@ def rls_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat,
     p = dim(ptag)
     for s in prange(Phi.shape[0]):
         codes[s] = _rls_diffuse_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                       skipped[s], Lk[s], opt[0], opt[1], NP, p)
+                                       skipped[s], Lk[s], sub(St, s), opt[0], opt[1], NP, p)
 
 
 @njit(**NJIT_PARALLEL)
@@ -246,7 +258,7 @@ def rls_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, 
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
         codes[g] = _rls_diffuse_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                                       skipped[a:z], Lk[a:z], opt[0], opt[1], NP, p)
+                                       skipped[a:z], Lk[a:z], None, opt[0], opt[1], NP, p)
 
 
 # ------------------------------------------------------------------- window
@@ -293,11 +305,22 @@ def _window_resolve(S, M, rcond, NP, p):
 
 
 @njit(**NJIT_INLINE)
-def _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, M, rtol, rcond, NP, p):
+def _window_direct(St, r, S, M, NP, p):
+    """Statistics row r of the window directly from its buffer (no prior: D₀ = ∞ meanwhile)."""
+    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
+    window_direct_hook(St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, np.empty(NP), U,
+                       D, M, NP, p)
+
+
+@njit(**NJIT_INLINE)
+def _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, M, rtol, rcond, NP, p):
     N = Phi.shape[0]
     flag = S.shape[0] - 2
     store = Th.shape[0] == N
-    theta = S[0:NP * p].reshape((NP, p))
+    theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
+    d0 = D0.copy()
+    D0[:] = np.inf  # the prior slot, unused by a diffuse window: no prior term in J
+    _window_direct(St, 0, S, M, NP, p)
     rebuilds = 0
     k = 0
     while k < N:
@@ -306,24 +329,29 @@ def _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, M, rtol, rcond
                 _prior_errors(theta, Phi[k], Y[k], E[k], NP, p)
                 _window_push(S, Phi[k], Y[k], lam[k], w[k], M, NP, p)
                 S[flag] = 1.0 if _window_resolve(S, M, rcond, NP, p) else 0.0
+                _window_direct(St, k + 1, S, M, NP, p)
             else:
                 skipped[k] = True
                 for j in range(p):
                     E[k, j] = np.nan
+                window_end_hook(St, k, False, U, D, NP)
             j = k
         else:
             S[flag + 1] = -1.0  # set by the stream if a removal needs a re-solve
             rebuilds += _window_stream_flat(S, Phi[k:], Y[k:], lam[k:], w[k:], _rest(Th, k, N),
-                                            E[k:], skipped[k:], None, M, rtol, NP, p, True)
+                                            E[k:], skipped[k:], rows_from(St, k), M, rtol, NP,
+                                            p, True)
             j = N - 1 if S[flag + 1] < 0.0 else k + int(S[flag + 1]) - 1
             for i in range(k, j):
                 Lk[i] = 1.0
             if S[flag + 1] >= 0.0:
                 S[flag] = 1.0 if _window_resolve(S, M, rcond, NP, p) else 0.0
+                _window_direct(St, j + 1, S, M, NP, p)
         Lk[j] = S[flag]
         if store:
             _store(Th, j, theta, NP, p)
         k = j + 1
+    D0[:] = d0
     return rebuilds
 
 
@@ -332,8 +360,8 @@ def window_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
     """One step of the diffuse window through the same code as :func:`window_diffuse_run`."""
     NP = dim(ntag)
     Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    reb = _window_diffuse_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, int(opt[1]), opt[2],
-                                 opt[3], NP, dim(ptag))
+    reb = _window_diffuse_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, None, int(opt[1]),
+                                 opt[2], opt[3], NP, dim(ptag))
     if skipped[0]:
         return SKIPPED
     return 2 if reb else 0
@@ -342,8 +370,8 @@ def window_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 @njit(**NJIT)
 def window_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N steps of the diffuse window; ``opt = [windup, M, rtol, rcond]``; returns re-solves."""
-    return _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, int(opt[1]), opt[2],
-                                  opt[3], dim(ntag), dim(ptag))
+    return _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, int(opt[1]),
+                                  opt[2], opt[3], dim(ntag), dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)
@@ -353,7 +381,8 @@ def window_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, m
     p = dim(ptag)
     for s in prange(Phi.shape[0]):
         codes[s] = _window_diffuse_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                          skipped[s], Lk[s], int(opt[1]), opt[2], opt[3], NP, p)
+                                          skipped[s], Lk[s], sub(St, s), int(opt[1]), opt[2],
+                                          opt[3], NP, p)
 
 
 @njit(**NJIT_PARALLEL)
@@ -364,5 +393,5 @@ def window_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skippe
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
         codes[g] = _window_diffuse_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z],
-                                          E[a:z], skipped[a:z], Lk[a:z], int(opt[1]), opt[2],
-                                          opt[3], NP, p)
+                                          E[a:z], skipped[a:z], Lk[a:z], None, int(opt[1]),
+                                          opt[2], opt[3], NP, p)

@@ -234,6 +234,25 @@ def window_direct_hook(St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, z, 
         _rs_direct_call(St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, z, U, D, M, NP, p)
 
 
+def srif_hook(St, k, ok, Y, lam, wk, ry, U, D, NP, p):
+    """Diffuse RLS prologue (:mod:`._diffuse`) after sample k: forgotten, sample added
+    with the part ``ry`` of its row that the Givens rotations leave over (J += ry²:
+    the rotations are orthogonal, so from full rank on J is the weighted residual sum
+    of squares of the samples so far, Bierman 1977, ch. V.3); diag P."""
+    if St is None:
+        return
+    if ok:
+        _rs_enter(St, k, Y[k], lam[k], wk, ry, 1.0, NP, p)
+        _rs_diag(St, k, U, D, NP)
+    else:
+        _rs_begin(St, k)
+
+
+def rows_from(St, k):
+    """Rows k, k + 1, … of ``St`` (the rows of a stream started at sample k), or None."""
+    return None if St is None else St[k:]
+
+
 def window_end_hook(St, k, ok, U, D, NP):
     """Window: row k + 1 unchanged when sample k was skipped; diag P."""
     if St is None:
@@ -262,6 +281,7 @@ _overload(window_remove_hook, lambda St, k, rebuilt, By, Bw, BL, pos, L, c, er, 
 _overload(window_direct_hook, lambda St, r, theta, Bphi, By, Bw, BL, meta, theta0, U0, D0, z, U,
           D, M, NP, p: None)
 _overload(window_end_hook, lambda St, k, ok, U, D, NP: None)
+_overload(srif_hook, lambda St, k, ok, Y, lam, wk, ry, U, D, NP, p: None)
 
 
 @overload(sub, inline="always")
@@ -269,3 +289,10 @@ def _sub(St, s):
     if isinstance(St, types.NoneType):
         return lambda St, s: None
     return lambda St, s: St[s]
+
+
+@overload(rows_from, inline="always")
+def _rows_from(St, k):
+    if isinstance(St, types.NoneType):
+        return lambda St, k: None
+    return lambda St, k: St[k:]

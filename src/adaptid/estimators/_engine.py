@@ -694,7 +694,8 @@ class RecursiveEstimator:
         self._count(skipped)
         self._report_codes(code, None)
         if want:
-            labels["stats"] = finish_stats(self, St, Th, Phi, has_constant)
+            labels["stats"] = finish_stats(self, St, Th, Phi, has_constant,
+                                           Lk if self._diffuse else None)
         traj = self._finish(Th, E, skipped, store, code if self._code_is_rebuilds else 0,
                             Lk if self._reports else None, Lk)
         return _dataclass_replace(traj, **labels) if labels else traj
@@ -739,7 +740,8 @@ class RecursiveEstimator:
         self._S, self._batch = S, shape_N[0]
         self._count(skipped)
         self._report_codes(codes, "stream")
-        ws = finish_stats(self, St, Th, Phi, has_constant) if want else None
+        ws = finish_stats(self, St, Th, Phi, has_constant, Lk if self._diffuse else None) \
+            if want else None
         traj = self._finish(Th, E, skipped, store,
                             codes.sum() if self._code_is_rebuilds else 0,
                             Lk if self._reports else None, Lk)

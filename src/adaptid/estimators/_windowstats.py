@@ -55,8 +55,17 @@ class WindowStats:
     with forgetting each is the same formula with the forgetting-weighted
     sums (:math:`\ell` is the exponentially weighted log-likelihood
     :math:`\sum_i c_i \ell_i` maximised over σ²). The prior term of ssr and
-    the prior in P vanish with a diffuse prior; with ``P0 = 1e12`` and data
-    of order 1 they change the statistics in about the 12th digit.
+    the prior in P vanish with an exact diffuse start (``P0="diffuse"``): the
+    statistics are then those of the least-squares fit of the window (or of
+    all samples so far) alone, statsmodels' values to rounding; with
+    ``P0 = 1e12`` and data of order 1 the prior changes them in about the
+    12th digit. With ``P0="diffuse"``, where θ is not yet identified (the
+    weighted information matrix of the window is rank-deficient, e.g. fewer
+    than n samples) ssr, σ̂², the standard errors, t values, R², adjusted R²,
+    ℓ, AIC and BIC are NaN; statsmodels' ``RollingOLS`` is NaN where fewer
+    than n samples are in the window (its ``min_nobs``), and in a
+    rank-deficient window with n samples or more it reports the values of a
+    pseudo-inverse fit, which are not compared.
     Where :math:`n_\mathrm{eff} \le n` (no degrees of freedom) σ̂², the
     standard errors, t values, R², adjusted R², ℓ, AIC and BIC are NaN.
     Skipped samples (``nan_policy="skip"``) repeat the previous row.
@@ -187,10 +196,6 @@ def check_stats(est, stats, has_constant) -> bool:
         raise param_error("stats", f"False for {type(est).__name__} with these options "
                           "(windowed statistics: SlidingWindowRLS, and RLS with constant or "
                           "per-sample exponential forgetting and no P_max)", stats)
-    if stats and getattr(est, "diffuse", False):
-        raise param_error("stats", "False with P0='diffuse' (windowed statistics of an exact "
-                          "diffuse start are not implemented; a large finite P0 such as 1e12 "
-                          "matches statsmodels RollingOLS to about 1e-12)", stats)
     return bool(stats)
 
 
@@ -213,9 +218,23 @@ def stats_rows(est, shape_N, want):
     return St
 
 
-def finish_stats(est, St, Th, Phi, has_constant):
-    """WindowStats of a run; remembers the last sums for the next run."""
+def finish_stats(est, St, Th, Phi, has_constant, identified=None):
+    """WindowStats of a run; remembers the last sums for the next run. ``identified``
+    (the kernels' per-sample flags of a diffuse start, or None): where 0 the
+    statistics of the fit are NaN (see :class:`WindowStats`)."""
     est._stats_acc = St[..., -1, :].copy()
     est._stats_mark = (est.n_updates, est._batch)
     kc = detect_constant(Phi) if has_constant is None else int(bool(has_constant))
-    return window_stats(St[..., 1:, :], Th, est.n_params, est.n_outputs, kc, est._single)
+    ws = window_stats(St[..., 1:, :], Th, est.n_params, est.n_outputs, kc, est._single)
+    if identified is None or np.all(identified != 0.0):
+        return ws
+    bad = np.asarray(identified) == 0.0
+    for name in _FIT_FIELDS:
+        a = getattr(ws, name)
+        a[bad] = np.nan
+    return ws
+
+
+#: the statistics that need θ determined by the data (NaN before, with P0="diffuse")
+_FIT_FIELDS = ("ssr", "sigma2", "stderr", "tvalues", "rsquared", "rsquared_adj", "llf", "aic",
+               "bic")

@@ -138,7 +138,9 @@ class ARX(_PolyModel):
             With ``n_params`` equal to the model's d; its options
             (forgetting — a float or a strategy object —, window, process
             covariance, prior) are used as they are. Default
-            ``adaptid.RLS(d)``.
+            ``adaptid.RLS(d)``. With ``P0="diffuse"`` θ is exactly the
+            (forgotten or windowed) least squares on the rows so far from
+            the first full-rank row on (``Trajectory.identified``).
 
         Returns
         -------
