@@ -15,7 +15,7 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply, _bierman_prep, _d_below, \
     _finite_row, _gain_step, _one_sample, _prior_errors, _segment_start, _store, \
     _time_update, _views
-from ._dims import dim
+from ._dims import dim, size_tag
 
 
 @njit(**NJIT_INLINE)
@@ -31,6 +31,15 @@ def _kalman_step(theta, U, D, phi, y, r2, w, Q, e, f, v, b, W, NP, p):
 
 @njit(**NJIT_INLINE)
 def _kalman_stream(S, Phi, Y, w, Th, E, skipped, opt, Q, NP, p):
+    """:func:`_kalman_core` for callers that hold n and p as sizes (not tags)."""
+    return _kalman_core(S, Phi, Y, w, Th, E, skipped, opt, Q, size_tag(NP), size_tag(p))
+
+
+@njit(**NJIT)
+def _kalman_core(S, Phi, Y, w, Th, E, skipped, opt, Q, ntag, ptag):
+    # Called, not inlined (compiled once per types and tags; see _rls._rls_core).
+    NP = dim(ntag)
+    p = dim(ptag)
     dthr = opt[0]
     r2 = opt[1]
     skip = opt[2] != 0.0

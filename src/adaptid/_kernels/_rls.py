@@ -24,17 +24,28 @@ from numba import prange
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply_pairs, _bierman_prep, _copy_factor, \
     _one_sample, _segment_start, _views
-from ._dims import dim
+from ._dims import dim, size_tag
 from ._rollstats import rls_hook, sub
 from ._scratch import scratch, scratch2, small_scratch
 
 @njit(**NJIT_INLINE)
 def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, NP, p):
+    """:func:`_rls_core` for callers that hold n and p as sizes (not tags)."""
+    return _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, size_tag(NP), size_tag(p))
+
+
+@njit(**NJIT)
+def _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag):
+    # Called, not inlined, by the entry points (one call per stream): numba's
+    # inlining copies the body's IR, which cost a fifth of the compile time;
+    # the tags keep n and p compile-time constants inside.
     # Written flat, with every branch at the top of the loop body: a branch
     # around the unrolled update (e.g. `if w > 0`) made LLVM spill the state
     # and the loop ran 4 x slower (measured at n = 4). The factor is worked
     # on in a stack copy (see _scratch): LLVM then knows that the stores to
     # the trajectory cannot change it and stops reloading it after each one.
+    NP = dim(ntag)
+    p = dim(ptag)
     theta, Us, Ds = _views(S, NP, p)
     U = scratch2(NP).T  # by columns, as in S
     D = scratch(NP)
@@ -108,7 +119,7 @@ def rls_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
     """
     NP = dim(ntag)
     Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _rls_stream(S, Phi, Y, lam1, w1, Th, E, skipped, None, opt[0], NP, dim(ptag))
+    bad = _rls_core(S, Phi, Y, lam1, w1, Th, E, skipped, None, opt[0], ntag, ptag)
     if skipped[0]:
         return SKIPPED
     if bad >= 0:
@@ -120,17 +131,15 @@ def rls_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 def rls_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N RLS steps; returns the first sample index where a pivot D_i lost
     positivity or passed the windup threshold ``opt[0]``, or -1."""
-    return _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, St, opt[0], dim(ntag), dim(ptag))
+    return _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, opt[0], ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     """B independent RLS streams in parallel; ``codes[b]`` as :func:`rls_run` returns."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _rls_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
-                               sub(St, s), opt[0], NP, p)
+        codes[s] = _rls_core(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
+                             sub(St, s), opt[0], ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
@@ -141,9 +150,7 @@ def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, 
     Parallel over segments; segment g is bit for bit :func:`rls_run` from S0.
     ``St`` (statistics) is not supported here: it must be None.
     """
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _rls_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                               skipped[a:z], None, opt[0], NP, p)
+        codes[g] = _rls_core(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                             skipped[a:z], None, opt[0], ntag, ptag)

@@ -25,7 +25,7 @@ from numba import prange
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _add, _bierman_apply, _d_below, \
     _gain_step, _one_sample, _prep_row, _prior_errors, _segment_start, _views
-from ._dims import dim
+from ._dims import dim, size_tag
 from ._rollstats import sub, window_direct_hook, window_end_hook, window_enter_hook, \
     window_remove_hook
 
@@ -82,6 +82,16 @@ def _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
 # the top of the loop body): 1.5-2x faster than composing the helpers above.
 @njit(**NJIT_INLINE)
 def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p, diffuse=False):
+    """:func:`_window_core` for callers that hold n and p as sizes (not tags)."""
+    return _window_core(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, size_tag(NP),
+                        size_tag(p), diffuse)
+
+
+@njit(**NJIT)
+def _window_core(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, ntag, ptag, diffuse=False):
+    # Called, not inlined (compiled once per types and tags; see _rls._rls_core).
+    NP = dim(ntag)
+    p = dim(ptag)
     theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
     f = np.empty(NP)
     v = np.empty(NP)
