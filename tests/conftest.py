@@ -6,6 +6,11 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+# The suite already runs one worker per core: `adaptid demo`'s helper process
+# that compiles kernels on the second core (adaptid.cli._prewarm) would only
+# compete with the other worker. tests/test_cli_prewarm.py switches it on.
+os.environ.setdefault("ADAPTID_PREWARM", "0")
+
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
@@ -14,18 +19,21 @@ SOAK = os.environ.get("ADAPTID_SOAK") == "1"
 
 
 # The cold suite is compile-bound: numba compiles each kernel once per model
-# size n for which it is specialised (n <= 16, the Python default). The
-# estimator-level files below run on those specialised kernels; the layers
-# above them (models, diagnostics, CLI, fleet, scikit-learn, ...) run on the
-# size-generic kernels, one compilation for every n. Both give bit for bit the
-# same results (tests/test_kernels_scratch.py checks it for every algorithm,
-# tests/test_fit_stats_agree.py between the shell and Python).
+# size n for which it is specialised (n <= 16, the Python default). The files
+# below test the specialisation itself (the core recursions, the state files
+# of the default path, the kernels' stack scratch and literal sizes, the SIMD
+# streams, the forms, the generated C, the benchmarks, the kernel cache) and
+# run on those specialised kernels; every other file (fuzzing, diffuse
+# starts, statistics, segments, strategies, models, diagnostics, CLI, fleet,
+# scikit-learn, ...) runs on the size-generic kernels, one compilation for
+# every n. Both give bit for bit the same results: tests/test_kernels_scratch.py
+# checks it for every algorithm, form, diffuse start and the statistics;
+# tests/test_fit_stats_agree.py between the shell and Python.
 # ADAPTID_MAX_SPECIALISED_N in the environment applies to every file.
 SPECIALISED_FILES = {
-    "test_recursive", "test_segments", "test_state_files", "test_state_files_hostile",
-    "test_forgetting", "test_fuzz", "test_kernels_scratch", "test_lms", "test_edges_numerics",
-    "test_codegen", "test_benchmarks_smoke", "test_kernel_cache", "test_environment",
-    "test_fit_stats_agree", "test_diffuse", "test_window_stats", "test_rls_forms", "test_soa",
+    "test_recursive", "test_state_files", "test_kernels_scratch", "test_codegen",
+    "test_benchmarks_smoke", "test_kernel_cache", "test_environment", "test_rls_forms",
+    "test_soa",
 }
 
 

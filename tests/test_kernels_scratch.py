@@ -108,7 +108,14 @@ def _run_with_tags(est, Phi, y, ntag, ptag):
     lambda n: __import__("adaptid").RLS(n, forgetting=__import__("adaptid").forgetting.Directional(0.97)),
     lambda n: __import__("adaptid").SlidingWindowRLS(n, 30, forgetting=0.99),
     lambda n: __import__("adaptid").KalmanRLS(n, process_cov=1e-4),
-], ids=["rls", "strategy", "window", "kalman"])
+    lambda n: __import__("adaptid").RLS(n, forgetting=0.98, form="sqrt"),
+    lambda n: __import__("adaptid").RLS(n, forgetting=0.98, P0="diffuse"),
+    lambda n: __import__("adaptid").SlidingWindowRLS(n, 30, P0="diffuse"),
+    lambda n: __import__("adaptid").KalmanRLS(n, process_cov=1e-4, P0="diffuse"),
+    lambda n: __import__("adaptid").LMS(n, step=0.01),
+    lambda n: __import__("adaptid").NLMS(n, step=0.5, eps=1e-6),
+], ids=["rls", "strategy", "window", "kalman", "sqrt", "rls-diffuse",
+        "window-diffuse", "kalman-diffuse", "lms", "nlms"])
 def test_specialised_and_generic_kernels_agree_bit_for_bit(make):
     """The same kernel source compiled with n, p as compile-time constants
     (tuple tags) and as run-time values (int tags) gives identical numbers."""
@@ -120,3 +127,24 @@ def test_specialised_and_generic_kernels_agree_bit_for_bit(make):
     gen = _run_with_tags(make(n), Phi, y, n, 1)
     np.testing.assert_array_equal(spec.theta, gen.theta)
     np.testing.assert_array_equal(spec.error, gen.error)
+
+
+@pytest.mark.parametrize("make", [
+    lambda n: __import__("adaptid").SlidingWindowRLS(n, 30, forgetting=0.99),
+    lambda n: __import__("adaptid").SlidingWindowRLS(n, 30, P0="diffuse"),
+    lambda n: __import__("adaptid").RLS(n, forgetting=0.98),
+], ids=["window", "window-diffuse", "rls"])
+def test_window_statistics_specialised_and_generic_agree_bit_for_bit(make):
+    """The statistics hooks compiled with compile-time and run-time sizes agree."""
+    rng = np.random.default_rng(4)
+    n = 3
+    Phi = rng.standard_normal((300, n))
+    y = Phi @ rng.standard_normal(n) + 0.1 * rng.standard_normal(300)
+    runs = []
+    for ntag, ptag in (((0,) * n, (0,)), (n, 1)):
+        est = make(n)
+        est._ntag, est._ptag = ntag, ptag
+        runs.append(est.run(Phi, y, stats=True))
+    np.testing.assert_array_equal(runs[0].theta, runs[1].theta)
+    for field in ("ssr", "sigma2", "stderr", "rsquared", "llf", "aic", "bic"):
+        np.testing.assert_array_equal(getattr(runs[0].stats, field), getattr(runs[1].stats, field))
