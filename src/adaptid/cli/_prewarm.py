@@ -1,0 +1,72 @@
+"""Compile a command's heavier kernels in a second process while the first works.
+
+A shell command is one short process, and on a fresh install most of its time
+is numba compiling kernels, one after the other in one thread (numba's
+compiler holds the GIL). ``adaptid demo`` needs three recursions; while the
+command simulates the motor and runs the first, a helper process compiles the
+sliding window's kernels into the same disk cache, and the command loads them
+from there when it gets to them (:func:`start`, :func:`wait`).
+
+Only where it can help and cannot hurt: the kernels are cached on disk (a
+trusted cache folder, :mod:`adaptid._config`), the machine has a second core,
+and ``ADAPTID_PREWARM`` is not ``0``. The helper compiles exactly the
+signatures the command will call (the same estimator, options and array
+types, on a few rows of zeros); whatever goes wrong in it (it is killed, it
+fails, it is slow) the command compiles the kernel itself, with the same
+result: the cache only ever holds what numba compiled from the same source.
+"""
+
+import os
+import subprocess
+import sys
+
+__all__ = ["start", "wait"]
+
+_CHILD = "from adaptid.cli._prewarm import _compile; _compile({methods!r})"
+
+
+def start(methods):
+    """Start compiling the kernels of the demo's ``methods`` in a helper process.
+
+    Returns the process, or None where a helper would not help (see the module).
+    """
+    from .. import _config
+
+    if not _config.CACHE or os.environ.get("ADAPTID_PREWARM", "1") == "0" \
+            or (os.cpu_count() or 1) < 2:
+        return None
+    env = dict(os.environ, ADAPTID_PREWARM="0",
+               PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    try:
+        return subprocess.Popen([sys.executable, "-c", _CHILD.format(methods=tuple(methods))],
+                                env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+    except OSError:
+        return None
+
+
+def wait(proc, timeout=120.0):
+    """Wait for the helper (then its kernels are on disk); kill it after ``timeout`` s."""
+    if proc is None:
+        return
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def _compile(methods):
+    """In the helper: run each method's estimator as the demo makes it, on zeros."""
+    import numpy as np
+
+    from ..estimators import size_generic_kernels
+    from ._demo import demo_spec
+    from ._engine import run_chunked
+
+    Phi = np.zeros((4, 3))
+    y = np.zeros(4)
+    with size_generic_kernels():
+        for m in methods:
+            est = demo_spec(m, theta=np.ones(3), sigma2=1.0).make(3, "raise")
+            run_chunked(est, Phi, y, n_chunks=2)

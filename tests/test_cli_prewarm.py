@@ -1,0 +1,95 @@
+"""``adaptid demo`` compiles the window's kernels in a helper process meanwhile.
+
+The helper must compile exactly the signatures the demo then calls (else the
+demo compiles them again and nothing is gained), and must never change a
+result. Oracle for "exactly": numba's own per-dispatcher counters of cache
+misses and hits, in a fresh process on a fresh cache folder.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import adaptid
+from adaptid.cli import _prewarm
+
+SRC = Path(adaptid.__file__).resolve().parents[1]
+
+DEMO_WINDOW_FIT = textwrap.dedent("""
+    import json, numpy as np
+    from adaptid.cli._demo import N_CHUNKS, demo_spec
+    from adaptid.cli._engine import fit_equation
+    from adaptid.datasets import dc_motor
+    from adaptid.estimators import size_generic_kernels
+    from adaptid.models import dc_motor_regressors
+    from adaptid._kernels import _window
+    data, _ = dc_motor(seed=0)
+    regs = dc_motor_regressors(data.time.to_numpy(), data.voltage.to_numpy(),
+                               data.current.to_numpy(), data.speed.to_numpy(),
+                               speed_kind="interval_mean")
+    reg = regs.mechanical
+    with size_generic_kernels():
+        fit = fit_equation("mechanical", list(reg.names), reg.Phi, np.asarray(reg.y, float),
+                           np.asarray(reg.index), demo_spec("window"), n_chunks=N_CHUNKS)
+    print(json.dumps({"misses": sum(_window.window_run.stats.cache_misses.values()),
+                      "hits": sum(_window.window_run.stats.cache_hits.values()),
+                      "theta": list(fit.theta)}))
+""")
+
+
+def _python(code, cache, tmp_path, **env):
+    full = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(SRC), **env)
+    proc = subprocess.run([sys.executable, "-c", code], env=full, cwd=tmp_path,
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc.stdout
+
+
+def test_helper_compiles_the_signatures_the_demo_calls(tmp_path):
+    cache = tmp_path / "cache"
+    cache.mkdir(mode=0o700)
+    _python("from adaptid.cli._prewarm import _compile; _compile(('window',))", cache, tmp_path)
+    out = json.loads(_python(DEMO_WINDOW_FIT, cache, tmp_path).splitlines()[-1])
+    assert out["misses"] == 0 and out["hits"] >= 1     # loaded, not compiled again
+    # control: on an empty cache folder the same fit compiles (a miss)
+    empty = tmp_path / "empty"
+    empty.mkdir(mode=0o700)
+    control = json.loads(_python(DEMO_WINDOW_FIT, empty, tmp_path).splitlines()[-1])
+    assert control["misses"] >= 1
+    assert control["theta"] == out["theta"]            # same numbers either way
+
+
+def test_no_helper_where_it_cannot_help(monkeypatch):
+    from adaptid import _config
+
+    monkeypatch.setenv("ADAPTID_PREWARM", "0")
+    assert _prewarm.start(("window",)) is None
+    monkeypatch.delenv("ADAPTID_PREWARM")
+    monkeypatch.setattr(_config, "CACHE", False)   # nothing cached: a helper cannot hand over
+    assert _prewarm.start(("window",)) is None
+    _prewarm.wait(None)                            # waiting for no helper is a no-op
+
+
+def test_a_stuck_helper_is_killed():
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    _prewarm.wait(proc, timeout=0.5)
+    assert proc.returncode is not None
+
+
+def test_demo_results_do_not_depend_on_the_helper(monkeypatch):
+    from typer.testing import CliRunner
+
+    from adaptid.cli._app import app
+
+    outs = []
+    for flag in ("0", "1"):
+        monkeypatch.setenv("ADAPTID_PREWARM", flag)
+        res = CliRunner().invoke(app, ["demo", "--json", "--no-report"])
+        assert res.exit_code == 0, res.output
+        out = json.loads(res.output)
+        out.pop("elapsed_s")                     # wall-clock time, the one field that differs
+        outs.append(out)
+    assert outs[0] == outs[1]
