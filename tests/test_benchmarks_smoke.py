@@ -26,7 +26,7 @@ def quick_results(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench") / "quick.json"
     proc = subprocess.run(
         [sys.executable, str(SCRIPT), "--quick", "--json", str(out)],
-        cwd=ROOT, capture_output=True, text=True, timeout=120,
+        cwd=ROOT, capture_output=True, text=True, timeout=600,
     )
     assert proc.returncode == 0, f"bench_rls.py --quick failed:\n{proc.stdout}\n{proc.stderr}"
     return json.loads(out.read_text()), proc.stdout
