@@ -41,7 +41,7 @@ def _same(a, b):
     return np.array_equal(a, b, equal_nan=True)
 
 
-@pytest.mark.parametrize("n", [1, 2, 3, 4, 8])
+@pytest.mark.parametrize("n", [1, 3, 8])
 def test_batched_equals_run_per_stream(n):
     rng = np.random.default_rng(n)
     B, N = 2 * _soa.LANES + 5, 70  # not a multiple of the lanes: a padded block
@@ -71,7 +71,7 @@ def test_batched_equals_run_per_stream(n):
 def test_batched_constant_weights_and_forgetting_and_continuation():
     # scalar λ and w (broadcast: reciprocals taken once), no store, then a second call
     rng = np.random.default_rng(7)
-    B, N, n = 3 * _soa.LANES, 45, 4
+    B, N, n = 3 * _soa.LANES, 45, 3
     Phi, y, _, _ = _data(rng, B, N, n, nan_frac=0.0)
     est = adaptid.RLS(n, forgetting=0.97, P0=1e4)
     bat = est.copy()
@@ -124,7 +124,7 @@ def _offsets(rng, G):
     return np.concatenate([[0], np.cumsum(lengths)])
 
 
-@pytest.mark.parametrize("n", [1, 4, 5])
+@pytest.mark.parametrize("n", [1, 5])
 @pytest.mark.parametrize("store", [False, True])
 def test_segments_equal_run_per_segment(n, store):
     rng = np.random.default_rng(10 + n)
