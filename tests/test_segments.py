@@ -76,3 +76,28 @@ def test_segments_float_offsets_rejected(rng):
     Phi, y, _ = _streams(rng, 2, [10])
     with pytest.raises(TypeError, match="offsets must be integers"):
         adaptid.RLS(2).run_segments(Phi, y, [0.0, 4.5, 10.0])
+
+
+@pytest.mark.parametrize("where", ["Phi", "y"])
+@pytest.mark.parametrize("make", [
+    lambda: adaptid.RLS(3, forgetting=0.99),              # the SIMD (SoA) path: 20 segments
+    lambda: adaptid.KalmanRLS(3, process_cov=1e-4),       # the scalar path
+], ids=["rls", "kalman"])
+def test_nan_policy_raise_names_the_array_and_sample_as_run_does(make, where):
+    """A non-finite sample under nan_policy='raise': the same ValueError as run()
+    gives for that sample, and the estimator is unchanged (checked after the kernel)."""
+    rng = np.random.default_rng(11)
+    N, G = 200, 20
+    Phi = rng.standard_normal((N, 3))
+    y = Phi @ np.ones(3)
+    (Phi if where == "Phi" else y)[137] = np.nan
+    off = np.linspace(0, N, G + 1).astype(int)
+    est = make()
+    before = est.get_state()["state"].copy()
+    with pytest.raises(ValueError) as seg:
+        est.run_segments(Phi, y, off)
+    with pytest.raises(ValueError) as run:
+        make().run(Phi, y)
+    assert str(seg.value) == str(run.value)
+    assert where in str(seg.value) and "137" in str(seg.value)
+    np.testing.assert_array_equal(est.get_state()["state"], before)

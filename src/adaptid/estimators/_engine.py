@@ -780,7 +780,9 @@ class RecursiveEstimator:
         if stats is not False:
             raise param_error("stats", "False for run_segments (windowed statistics: run or "
                               "run_batched)", stats)
-        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False)
+        # nan_policy="raise": the kernels flag non-finite samples and the check
+        # follows them (no pre-pass over the data); the estimator is not changed
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
         N = Phi.shape[0]
         off = check_offsets(offsets, N)
         G = off.shape[0] - 1
@@ -798,6 +800,7 @@ class RecursiveEstimator:
         else:
             self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, None,
                                     self._opt, self._mat, status, self._ntag, self._ptag)
+        self._raise_if_skipped(skipped, Phi, Y, None)
         n_skip = np.empty(G, dtype=np.int64)
         sse = np.empty((G, E.shape[1]))
         segment_stats(E, skipped, off, n_skip, sse)
