@@ -300,3 +300,18 @@ def test_sqrt_monitor_code_is_the_exact_rule_sample_by_sample(n, seed):
     with warnings.catch_warnings():
         warnings.simplefilter("error", adaptid.CovarianceWindupWarning)
         quiet.run(Phi[:k], y[:k], weights=w[:k], forgetting=lam[:k])
+
+
+def test_auto_switch_rule_when_a_threshold_is_set(monkeypatch):
+    # the rule of resolve_form as documented in estimators/_rlsforms.py: "auto" is the
+    # square-root form strictly above AUTO_SQRT_ABOVE, except with a forgetting strategy /
+    # P_max (not fast) or an exact diffuse start (both need the U-D factors)
+    from adaptid.estimators import _rlsforms as rf
+    monkeypatch.setattr(rf, "AUTO_SQRT_ABOVE", 15)
+    assert rf.resolve_form("auto", 16, True) == "sqrt"
+    assert rf.resolve_form("auto", 15, True) == "ud"
+    assert rf.resolve_form("auto", 40, True, diffuse=True) == "ud"
+    assert rf.resolve_form("auto", 40, False) == "ud"
+    assert rf.resolve_form("ud", 40, True) == "ud"
+    monkeypatch.setattr(rf, "AUTO_SQRT_ABOVE", None)
+    assert rf.resolve_form("auto", 64, True) == "ud"

@@ -40,15 +40,20 @@ __all__ = ["FORMS", "AUTO_SQRT_ABOVE", "resolve_form", "block_from_T", "T_from_b
 
 FORMS = ("auto", "ud", "sqrt", "covariance")
 #: ``form="auto"`` takes the square-root form for n above this; None: never.
-#: Measured (benchmarks/bench_rls_forms.py, BENCHMARKS of issue 19): the
-#: square-root kernel as it stands is slower than the U-D one at every n
-#: (0.11-0.12 x the fastest C loop at n = 32, 64 against U-D's 0.21-0.27 x), so
-#: "auto" is U-D everywhere until the sweep vectorises (see _kernels/_potter.py).
+#: Measured (benchmarks/bench_rls.py --forms, same-run ratios to the fastest C loop,
+#: 2 shared cores): since the vectorised Potter sweep the square-root form is the
+#: faster at n = 16, 32, 64 (2.5/0.61/0.62 x against U-D's 1.08/0.32/0.26 x) and
+#: from n ≈ 16 on (sqrt/U-D 0.9-0.97 at n = 10-14, 1.15 at 20, 2.2 at 24). It is
+#: still None because RLS refuses what the square-root form lacks instead of
+#: falling back to U-D: ``P0="diffuse"`` with form="auto" and ``run(stats=True)``
+#: would raise for n above the switch (estimators/_rls.py decides both; see
+#: ``resolve_form(..., diffuse=)``).
 AUTO_SQRT_ABOVE = None
 
 
-def resolve_form(form, n, fast):
-    """The form an RLS of n parameters runs in ("ud", "sqrt" or "covariance")."""
+def resolve_form(form, n, fast, diffuse=False):
+    """The form an RLS of n parameters runs in ("ud", "sqrt" or "covariance");
+    "auto" is U-D with an exact diffuse start (``diffuse``: it hands over to U-D)."""
     form = check_choice(form, "form", FORMS)
     if not fast:
         if form in ("sqrt", "covariance"):
@@ -56,7 +61,8 @@ def resolve_form(form, n, fast):
                               "(they act on the U-D factors)", form)
         return "ud"
     if form == "auto":
-        return "sqrt" if AUTO_SQRT_ABOVE is not None and n > AUTO_SQRT_ABOVE else "ud"
+        big = AUTO_SQRT_ABOVE is not None and n > AUTO_SQRT_ABOVE
+        return "sqrt" if big and not diffuse else "ud"
     return form
 
 
