@@ -84,67 +84,68 @@ def _ptr(builder, base, off, ty):
 
 def _splat(builder, x, vec):
     u = ir.Constant(vec, ir.Undefined)
-    for lane in range(LANES):
+    for lane in range(vec.count):
         u = builder.insert_element(u, x, ir.Constant(ir.IntType(32), lane))
     return u
 
 
+def _lanes(builder, v):
+    return [builder.extract_element(v, ir.Constant(ir.IntType(32), k)) for k in range(v.type.count)]
+
+
 def _sweep_ir(builder, F, f, a, x, h, s, n, update):
     """The LLVM IR of :func:`_sweep` (``update``) or :func:`_fresh` for a compile-time n:
-    a loop over the columns j, each in vectors of LANES doubles (the rows left over one
-    by one, into lane 0 as :func:`_coldot`), with h and q in registers across columns."""
+    a loop over the columns j, each in vectors of LANES doubles and one of the n % LANES
+    rows left (their products summed one by one into lane 0, as :func:`_coldot`), with
+    h and q in registers across columns."""
     i64, dbl = ir.IntType(64), ir.DoubleType()
-    vec = ir.VectorType(dbl, LANES)
-    fmas = {t: cgutils.get_or_insert_function(builder.module, ir.FunctionType(t, [t] * 3),
-                                              f"llvm.fma.{'v%df64' % LANES if t is vec else 'f64'}")
-            for t in (vec, dbl)}
-    rows = [(i, vec if i + LANES <= n else dbl) for i in range(0, n - n % LANES, LANES)] + \
-        [(i, dbl) for i in range(n - n % LANES, n)]
+    vecs = [ir.VectorType(dbl, LANES)] * (n // LANES) + \
+        ([ir.VectorType(dbl, n % LANES)] if n % LANES else [])
+    fmas = {t.count: cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(t, [t] * 3), f"llvm.fma.v{t.count}f64") for t in vecs}
+    fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(dbl, [dbl] * 3),
+                                         "llvm.fma.f64")
     pre, loop, done = builder.block, builder.append_basic_block(), builder.append_basic_block()
-    sv = _splat(builder, s, vec)
+    svs = {t.count: _splat(builder, s, t) for t in vecs}
     builder.branch(loop)
     builder.position_at_end(loop)
     j, q = builder.phi(i64), builder.phi(dbl)
-    hs = [builder.phi(ty) for _, ty in rows]
+    hs = [builder.phi(t) for t in vecs]
     col = builder.gep(F, [builder.mul(j, ir.Constant(i64, n))])
     fj = builder.load(builder.gep(f, [j]))
-    fjv = _splat(builder, fj, vec)
-    acc, vals = ir.Constant(vec, [0.0] * LANES), []
-    for i, ty in rows:
-        p, splat = _ptr(builder, col, i, ty), (lambda u, uv: uv if ty is vec else u)
+    acc, vals = ir.Constant(ir.VectorType(dbl, LANES), [0.0] * LANES), []
+    for b, t in enumerate(vecs):
+        p = _ptr(builder, col, LANES * b, t)
         v = builder.load(p, align=8)
         if update:
-            t = builder.fmul(builder.load(_ptr(builder, a, i, ty), align=8), splat(fj, fjv))
-            v = builder.call(fmas[ty], [splat(s, sv), v, builder.fneg(t)])
+            prod = builder.fmul(builder.load(_ptr(builder, a, LANES * b, t), align=8),
+                                _splat(builder, fj, t))
+            v = builder.call(fmas[t.count], [svs[t.count], v, builder.fneg(prod)])
             builder.store(v, p, align=8)
-        xv = builder.load(_ptr(builder, x, i, ty), align=8)
-        if ty is dbl and not isinstance(acc, list):
-            acc = [builder.extract_element(acc, ir.Constant(ir.IntType(32), k))
-                   for k in range(LANES)]
-        if ty is vec:
-            acc = builder.call(fmas[vec], [v, xv, acc])
+        xv = builder.load(_ptr(builder, x, LANES * b, t), align=8)
+        if t.count == LANES:
+            acc = builder.call(fmas[LANES], [v, xv, acc])
         else:
-            acc[0] = builder.call(fmas[dbl], [v, xv, acc[0]])
+            acc = _lanes(builder, acc)
+            for vi, xi in zip(_lanes(builder, v), _lanes(builder, xv)):
+                acc[0] = builder.call(fma, [vi, xi, acc[0]])
         vals.append(v)
-    L = acc if isinstance(acc, list) else \
-        [builder.extract_element(acc, ir.Constant(ir.IntType(32), k)) for k in range(LANES)]
+    L = acc if isinstance(acc, list) else _lanes(builder, acc)
     add = builder.fadd  # ((L0 + L4) + (L2 + L6)) + ((L1 + L5) + (L3 + L7)), as _coldot
     fn = add(add(add(L[0], L[4]), add(L[2], L[6])), add(add(L[1], L[5]), add(L[3], L[7])))
     builder.store(fn, builder.gep(f, [j]))
-    fnv = _splat(builder, fn, vec)
-    hn = [builder.call(fmas[ty], [v, fnv if ty is vec else fn, hv])
-          for (_, ty), v, hv in zip(rows, vals, hs)]
-    qn = builder.call(fmas[dbl], [fn, fn, q])
+    hn = [builder.call(fmas[t.count], [v, _splat(builder, fn, t), hv])
+          for t, v, hv in zip(vecs, vals, hs)]
+    qn = builder.call(fma, [fn, fn, q])
     j1 = builder.add(j, ir.Constant(i64, 1))
     builder.cbranch(builder.icmp_signed("<", j1, ir.Constant(i64, n)), loop, done)
     for phi, start, nxt in [(j, ir.Constant(i64, 0), j1), (q, ir.Constant(dbl, 0.0), qn)] + \
-            [(ph, ir.Constant(ty, [0.0] * LANES if ty is vec else 0.0), v)
-             for ph, (_, ty), v in zip(hs, rows, hn)]:
+            [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(hs, vecs, hn)]:
         phi.add_incoming(start, pre)
         phi.add_incoming(nxt, loop)
     builder.position_at_end(done)
-    for (i, ty), v in zip(rows, hn):
-        builder.store(v, _ptr(builder, h, i, ty), align=8)
+    for b, (t, v) in enumerate(zip(vecs, hn)):
+        builder.store(v, _ptr(builder, h, LANES * b, t), align=8)
     return qn
 
 
