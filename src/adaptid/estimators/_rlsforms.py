@@ -41,9 +41,10 @@ __all__ = ["FORMS", "AUTO_SQRT_ABOVE", "resolve_form", "block_from_T", "T_from_b
 FORMS = ("auto", "ud", "sqrt", "covariance")
 #: ``form="auto"`` takes the square-root form for n above this; None: never.
 #: Measured (benchmarks/bench_rls.py --forms, same-run ratios to the fastest C loop,
-#: 2 shared cores): since the vectorised Potter sweep the square-root form is the
-#: faster at n = 16, 32, 64 (2.5/0.61/0.62 x against U-D's 1.08/0.32/0.26 x) and
-#: from n ≈ 16 on (sqrt/U-D 0.9-0.97 at n = 10-14, 1.15 at 20, 2.2 at 24). It is
+#: 2 shared cores, quiet machine): since the vectorised Potter sweep the square-root
+#: form is the faster at n = 16, 32, 64 (1.86/0.63/0.61 x against U-D's
+#: 1.09/0.38/0.35 x); sqrt/U-D is 1.08, 1.01, 0.96 at n = 10, 12, 14 (a tie) and
+#: 1.34, 1.60 at n = 20, 24, so the switch would be at n ≥ 16 (AUTO_SQRT_ABOVE = 15). It is
 #: still None because RLS refuses what the square-root form lacks instead of
 #: falling back to U-D: ``P0="diffuse"`` with form="auto" and ``run(stats=True)``
 #: would raise for n above the switch (estimators/_rls.py decides both; see
