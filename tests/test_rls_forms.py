@@ -251,3 +251,67 @@ def test_factored_forms_need_no_repair_on_the_same_data(rng, form):
         tr = est.run(Phi, y)
     assert np.all(np.isfinite(tr.theta))
     assert abs(est.theta.sum() - 3.0) < 1e-6
+
+
+def _first_outside(Phi, y, w, lam, thr, n):
+    """The monitor's rule evaluated in NumPy on the state after every update():
+    the first sample after which a diagonal entry of P = S Sᵀ left (0, thr)."""
+    est = adaptid.RLS(n, P0=1.0, windup_threshold=thr, form="sqrt")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
+        for k in range(Phi.shape[0]):
+            est.update(Phi[k], y[k], weight=w[k], forgetting=lam[k])
+            S = _cols_of(est.get_state()["state"][n:], n)
+            dg = np.sum(S * S, axis=1)
+            if not np.all((dg > 0) & (dg < thr)):
+                return k
+    return None
+
+
+def _cols_of(block, n):
+    return block[: n * n].reshape(n, n).T
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("n", [2, 9, 24])
+def test_sqrt_monitor_code_is_the_exact_rule_sample_by_sample(n, seed):
+    # The square-root kernel screens diag(P) with O(1) bounds and evaluates the rule
+    # (diag(S Sᵀ) in (0, windup_threshold)) only when they cannot decide: the sample it
+    # reports must be the rule's, here evaluated in NumPy after every step. One direction
+    # is excited only in bursts, so diag(P) grows like λ^-k in between and crosses the
+    # threshold at a sample the bounds must not miss nor anticipate.
+    rng = np.random.default_rng([seed, n])
+    N = 1500
+    Phi = rng.standard_normal((N, n))
+    Phi[:, -1] *= (np.arange(N) % 400) < 40  # bursts of excitation of the last regressor
+    y = Phi @ rng.standard_normal(n)
+    w = rng.uniform(0.5, 2.0, N)
+    w[::37] = 0.0
+    lam = rng.uniform(0.95, 0.99, N)
+    # a threshold the last diagonal entry of P passes inside the first quiet stretch
+    thr = float(rng.uniform(5.0, 50.0))
+    k = _first_outside(Phi, y, w, lam, thr, n)
+    assert k is not None and k > 40
+    est = adaptid.RLS(n, P0=1.0, windup_threshold=thr, form="sqrt")
+    with pytest.warns(adaptid.CovarianceWindupWarning, match=f"at sample {k}:"):
+        est.run(Phi, y, weights=w, forgetting=lam)
+    # and no warning when the same data stop one sample earlier
+    quiet = adaptid.RLS(n, P0=1.0, windup_threshold=thr, form="sqrt")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", adaptid.CovarianceWindupWarning)
+        quiet.run(Phi[:k], y[:k], weights=w[:k], forgetting=lam[:k])
+
+
+def test_auto_switch_rule_when_a_threshold_is_set(monkeypatch):
+    # the rule of resolve_form as documented in estimators/_rlsforms.py: "auto" is the
+    # square-root form strictly above AUTO_SQRT_ABOVE, except with a forgetting strategy /
+    # P_max (not fast) or an exact diffuse start (both need the U-D factors)
+    from adaptid.estimators import _rlsforms as rf
+    monkeypatch.setattr(rf, "AUTO_SQRT_ABOVE", 15)
+    assert rf.resolve_form("auto", 16, True) == "sqrt"
+    assert rf.resolve_form("auto", 15, True) == "ud"
+    assert rf.resolve_form("auto", 40, True, diffuse=True) == "ud"
+    assert rf.resolve_form("auto", 40, False) == "ud"
+    assert rf.resolve_form("ud", 40, True) == "ud"
+    monkeypatch.setattr(rf, "AUTO_SQRT_ABOVE", None)
+    assert rf.resolve_form("auto", 64, True) == "ud"

@@ -22,24 +22,148 @@ the critical path) and does not vectorise; here one sweep over S per sample,
 column by column, updates column j (a vector operation down the column),
 forms the next sample's :math:`f_j = S_{:,j}^T\varphi_{k+1}` (a dot product
 in eight fixed lanes, so the same bits whatever the vector width), and
-accumulates :math:`h \mathrel{+}= S_{:,j} f_j` and the diagonal of P
-(:math:`\sum_j S_{ij}^2`) as axpys. A sample that was skipped or had weight 0
-makes the next one form f and h afresh, with the same lane arithmetic, so
-``update`` equals ``run`` bit for bit.
+accumulates :math:`h \mathrel{+}= S_{:,j} f_j` and :math:`q = f^Tf` — three
+multiply-adds and a multiply per entry of S. A sample that was skipped or had
+weight 0 makes the next one form f and h afresh, with the same lane arithmetic,
+so ``update`` equals ``run`` bit for bit. For a compile-time n the sweep is
+LLVM vector code (:func:`_sweep_n`: numba does not SLP-vectorise the unrolled
+loops of a constant n); the run-time-n kernel runs the same arithmetic as loops.
 
 Monitoring: the code is the first sample after which a diagonal entry of
 P = S Sᵀ left (0, ``opt[0]``) (zero: S lost rank; NaN/inf: overflow), or −1.
+The rule itself — :math:`\mathrm{diag}(SS^T)_i = \sum_j S_{ij}^2` summed in
+order, compared with 0 and ``opt[0]`` (:func:`_diag_inside`) — costs a pass
+over S; it is evaluated only when cheap bounds cannot decide. In real
+arithmetic, with :math:`P' = (P - hh^T/d)/\lambda` and Cauchy–Schwarz
+(:math:`h_i^2 \le P_{ii}\,\varphi^TP\varphi`),
+
+.. math::
+
+    \frac{r}{d\,\lambda} P_{ii} \;\le\; P'_{ii} \;\le\; \frac{P_{ii}}{\lambda},
+
+so a lower bound lo and an upper bound hi on diag(P) follow each sample in O(1):
+``lo ← lo (r/d − τ)(1 − τ)/λ``, ``hi ← hi (1 + τ)/λ``, τ = ``SLACK``·(n + 16)
+covering the rounding of the sweep (h, f, d and S each to a few (n + 10) ulp)
+and of the rule's own sum. While lo > ``FLOOR`` and hi (1 + τ) < ``opt[0]``
+(and < ``CEIL``) every entry of the rule is inside; otherwise the rule is
+evaluated and lo, hi are reset from its sums. So the code is exactly the
+rule's, sample by sample; the rule runs at the first sample of a call and then
+once per a few hundred to a few thousand samples (when lo has decayed by
+(r/(dλ))ᵏ or hi has grown by λ⁻ᵏ), and at every sample once near the
+threshold.
 """
 
 import numpy as np
-from numba import prange
+from llvmlite import ir
+from numba import prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic, overload
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _one_sample, _segment_start, _views
 from ._dims import dim
 from ._scratch import scratch, scratch2
 
+_OPTS = {"fastmath": NJIT["fastmath"]}
+
 LANES = 8  # the dot products' fixed lane count (part of the arithmetic: keep it)
+#: relative slack τ = SLACK·(n + 16) of the bounds on diag(P) per sample: 64 units
+#: of 2⁻⁵³ per (n + 16), over four times what the rounding of one update of S (and
+#: of the rule's sum of squares) can move a row's norm² by (module docstring)
+SLACK = 64 * 2.0 ** -53
+#: a lower bound above FLOOR keeps the rule's sum of squares > 0 (no underflow to 0);
+#: an upper bound below CEIL keeps it and h finite
+FLOOR, CEIL = 1e-280, 1e300
+
+
+def _ptr(builder, base, off, ty):
+    """&base[off] (doubles), as a pointer to ``ty`` (a vector or a double)."""
+    return builder.bitcast(builder.gep(base, [ir.Constant(ir.IntType(64), off)]),
+                           ty.as_pointer())
+
+
+def _splat(builder, x, vec):
+    u = ir.Constant(vec, ir.Undefined)
+    for lane in range(vec.count):
+        u = builder.insert_element(u, x, ir.Constant(ir.IntType(32), lane))
+    return u
+
+
+def _lanes(builder, v):
+    return [builder.extract_element(v, ir.Constant(ir.IntType(32), k)) for k in range(v.type.count)]
+
+
+def _sweep_ir(builder, F, f, a, x, h, s, n, update):
+    """The LLVM IR of :func:`_sweep` (``update``) or :func:`_fresh` for a compile-time n:
+    a loop over the columns j, each in vectors of LANES doubles and one of the n % LANES
+    rows left (their products summed one by one into lane 0, as :func:`_coldot`), with
+    h and q in registers across columns."""
+    i64, dbl = ir.IntType(64), ir.DoubleType()
+    vecs = [ir.VectorType(dbl, LANES)] * (n // LANES) + \
+        ([ir.VectorType(dbl, n % LANES)] if n % LANES else [])
+    fmas = {t.count: cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(t, [t] * 3), f"llvm.fma.v{t.count}f64") for t in vecs}
+    fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(dbl, [dbl] * 3),
+                                         "llvm.fma.f64")
+    pre, loop, done = builder.block, builder.append_basic_block(), builder.append_basic_block()
+    svs = {t.count: _splat(builder, s, t) for t in vecs}
+    builder.branch(loop)
+    builder.position_at_end(loop)
+    j, q = builder.phi(i64), builder.phi(dbl)
+    hs = [builder.phi(t) for t in vecs]
+    col = builder.gep(F, [builder.mul(j, ir.Constant(i64, n))])
+    fj = builder.load(builder.gep(f, [j]))
+    acc, vals = ir.Constant(ir.VectorType(dbl, LANES), [0.0] * LANES), []
+    for b, t in enumerate(vecs):
+        p = _ptr(builder, col, LANES * b, t)
+        v = builder.load(p, align=8)
+        if update:
+            prod = builder.fmul(builder.load(_ptr(builder, a, LANES * b, t), align=8),
+                                _splat(builder, fj, t))
+            v = builder.call(fmas[t.count], [svs[t.count], v, builder.fneg(prod)])
+            builder.store(v, p, align=8)
+        xv = builder.load(_ptr(builder, x, LANES * b, t), align=8)
+        if t.count == LANES:
+            acc = builder.call(fmas[LANES], [v, xv, acc])
+        else:
+            acc = _lanes(builder, acc)
+            for vi, xi in zip(_lanes(builder, v), _lanes(builder, xv)):
+                acc[0] = builder.call(fma, [vi, xi, acc[0]])
+        vals.append(v)
+    L = acc if isinstance(acc, list) else _lanes(builder, acc)
+    add = builder.fadd  # ((L0 + L4) + (L2 + L6)) + ((L1 + L5) + (L3 + L7)), as _coldot
+    fn = add(add(add(L[0], L[4]), add(L[2], L[6])), add(add(L[1], L[5]), add(L[3], L[7])))
+    builder.store(fn, builder.gep(f, [j]))
+    hn = [builder.call(fmas[t.count], [v, _splat(builder, fn, t), hv])
+          for t, v, hv in zip(vecs, vals, hs)]
+    qn = builder.call(fma, [fn, fn, q])
+    j1 = builder.add(j, ir.Constant(i64, 1))
+    builder.cbranch(builder.icmp_signed("<", j1, ir.Constant(i64, n)), loop, done)
+    for phi, start, nxt in [(j, ir.Constant(i64, 0), j1), (q, ir.Constant(dbl, 0.0), qn)] + \
+            [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(hs, vecs, hn)]:
+        phi.add_incoming(start, pre)
+        phi.add_incoming(nxt, loop)
+    builder.position_at_end(done)
+    for b, (t, v) in enumerate(zip(vecs, hn)):
+        builder.store(v, _ptr(builder, h, LANES * b, t), align=8)
+    return qn
+
+
+@intrinsic
+def _sweep_n(typingctx, F, f, a, x, h, s, update, NP):
+    """:func:`_sweep` (``update``) or :func:`_fresh` for a compile-time n = NP, in
+    vectors of LANES doubles: numba does not SLP-vectorise the unrolled loops of a
+    constant n. Returns q = fᵀf of the new f."""
+    if not isinstance(NP, types.IntegerLiteral) or not isinstance(update, types.BooleanLiteral):
+        return None
+    n, upd = NP.literal_value, update.literal_value
+
+    def codegen(context, builder, signature, args):
+        data = [context.make_array(signature.args[k])(context, builder, args[k]).data
+                for k in range(5)]
+        return _sweep_ir(builder, *data, args[5], n, upd)
+
+    return types.float64(F, f, a, x, h, s, update, NP), codegen
 
 
 @njit(**NJIT_INLINE)
@@ -63,39 +187,60 @@ def _coldot(F, j, x, NP):
     return ((a0 + a4) + (a2 + a6)) + ((a1 + a5) + (a3 + a7))
 
 
-@njit(**NJIT_INLINE)
 def _fresh(F, phi, f, h, NP):
     """f = Fᵀφ, h = F f: the arithmetic of the sweep, for a first or resumed sample."""
     for i in range(NP):
         h[i] = 0.0
+    q = 0.0
     for j in range(NP):
         fj = _coldot(F, j, phi, NP)
         f[j] = fj
+        q += fj * fj
         for i in range(NP):
             h[i] += F[i, j] * fj
+    return q
 
 
-@njit(**NJIT_INLINE)
-def _sweep(F, f, h, a, rn, s, nxt, NP):
-    """F ← s F − a fᵀ column by column; f, h ← those of the next regressor; rn ← diag(F Fᵀ)."""
+def _sweep(F, f, h, a, s, nxt, NP):
+    """F ← s F − a fᵀ column by column; f, h ← those of the next regressor; returns fᵀf."""
     for i in range(NP):
         h[i] = 0.0
-        rn[i] = 0.0
+    q = 0.0
     for j in range(NP):
         fj = f[j]
         for i in range(NP):
             F[i, j] = s * F[i, j] - a[i] * fj
         fn = _coldot(F, j, nxt, NP)
         f[j] = fn
+        q += fn * fn
         for i in range(NP):
-            v = F[i, j]
-            h[i] += v * fn
-            rn[i] += v * v
+            h[i] += F[i, j] * fn
+    return q
+
+
+@overload(_fresh, inline="always", prefer_literal=True, jit_options=_OPTS)
+def _fresh_compiled(F, phi, f, h, NP):
+    if not isinstance(NP, types.IntegerLiteral):
+        return _fresh
+
+    def impl(F, phi, f, h, NP):
+        return _sweep_n(F, f, f, phi, h, 1.0, False, NP)
+    return impl
+
+
+@overload(_sweep, inline="always", prefer_literal=True, jit_options=_OPTS)
+def _sweep_compiled(F, f, h, a, s, nxt, NP):
+    if not isinstance(NP, types.IntegerLiteral):
+        return _sweep
+
+    def impl(F, f, h, a, s, nxt, NP):
+        return _sweep_n(F, f, a, nxt, h, s, True, NP)
+    return impl
 
 
 @njit(**NJIT_INLINE)
 def _diag_inside(F, rn, dthr, NP):
-    """diag(F Fᵀ) into rn (by rows) and whether each entry is in (0, dthr)."""
+    """diag(F Fᵀ) into rn (by rows) and whether each entry is in (0, dthr): the rule."""
     for i in range(NP):
         rn[i] = 0.0
     for j in range(NP):
@@ -108,6 +253,20 @@ def _diag_inside(F, rn, dthr, NP):
 
 
 @njit(**NJIT_INLINE)
+def _exact(F, rn, dthr, tau, NP):
+    """The rule, and bounds (lo, hi) on the entries of diag(F Fᵀ) to screen the next samples."""
+    inside = _diag_inside(F, rn, dthr, NP)
+    lo = np.inf
+    hi = 0.0
+    for i in range(NP):
+        lo = min(lo, rn[i])
+        hi = max(hi, rn[i])
+    if not inside:
+        lo = 0.0  # (NaN too) the rule again at the next sample
+    return inside, lo * (1.0 - tau), hi * (1.0 + tau)
+
+
+@njit(**NJIT_INLINE)
 def _errors(theta, phi, Y, k, e, E, NP, p):
     for j in range(p):
         s = Y[k, j]
@@ -115,6 +274,24 @@ def _errors(theta, phi, Y, k, e, E, NP, p):
             s -= phi[i] * theta[i, j]
         e[j] = s
         E[k, j] = s
+
+
+@njit(**NJIT_INLINE)
+def _gain(q, h, a, theta, e, lam, wk, NP, p):
+    """a = β h (β = γ s/d = s/(d + √(r d)), d = r + q, q = fᵀf), θ ← θ + h ε/d;
+    returns (s, r/d). a first: the next sweep waits for it, not for θ."""
+    r = lam / wk
+    d = r + q
+    s = 1.0 / np.sqrt(lam)
+    beta = s / (d + np.sqrt(r * d))
+    for i in range(NP):
+        a[i] = beta * h[i]
+    idd = 1.0 / d
+    for i in range(NP):
+        g = h[i] * idd
+        for j in range(p):
+            theta[i, j] += g * e[j]
+    return s, r * idd
 
 
 @njit(**NJIT_INLINE)
@@ -131,8 +308,10 @@ def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
     e = scratch(p)
     N = Phi.shape[0]
     store = Th.shape[0] == N
-    fresh = False  # f, h belong to Phi[k]
-    bad = -1
+    fresh = False  # f, h (and q = fᵀf) belong to Phi[k]
+    q, bad = 0.0, -1
+    tau = SLACK * (NP + 16)
+    lo, hi = 0.0, np.inf  # bounds on diag(F Fᵀ) (see the module docstring): none yet
     for k in range(N):
         phi = Phi[k]
         ok = True
@@ -144,32 +323,22 @@ def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
         inside = True
         if ok and wk > 0.0:
             if not fresh:
-                _fresh(F, phi, f, h, NP)
+                q = _fresh(F, phi, f, h, NP)
             _errors(theta, phi, Y, k, e, E, NP, p)
-            r = lam[k] / wk
-            q = 0.0
-            for i in range(NP):
-                q += f[i] * f[i]
-            d = r + q
-            idd = 1.0 / d
-            s = 1.0 / np.sqrt(lam[k])
-            beta = idd / (1.0 + np.sqrt(r * idd)) * s
-            for i in range(NP):
-                g = h[i] * idd
-                for j in range(p):
-                    theta[i, j] += g * e[j]
-                a[i] = beta * h[i]
-            _sweep(F, f, h, a, rn, s, Phi[k + 1] if k + 1 < N else phi, NP)
+            s, rd = _gain(q, h, a, theta, e, lam[k], wk, NP, p)
+            q = _sweep(F, f, h, a, s, Phi[k + 1] if k + 1 < N else phi, NP)
             fresh = True
-            for i in range(NP):
-                inside &= (rn[i] > 0.0) & (rn[i] < dthr)
+            lo *= (rd - tau) * (1.0 - tau) / lam[k]
+            hi *= (1.0 + tau) / lam[k]
+            if bad < 0 and not (lo > FLOOR and hi * (1.0 + tau) < dthr and hi < CEIL):
+                inside, lo, hi = _exact(F, rn, dthr, tau, NP)
         elif ok:  # weight 0: the sample only advances the forgetting
             _errors(theta, phi, Y, k, e, E, NP, p)
             s = 1.0 / np.sqrt(lam[k])
             for j in range(NP):
                 for i in range(NP):
                     F[i, j] *= s
-            inside = _diag_inside(F, rn, dthr, NP)
+            inside, lo, hi = _exact(F, rn, dthr, tau, NP)
             fresh = False
         else:
             skipped[k] = True

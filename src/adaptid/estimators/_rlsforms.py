@@ -40,15 +40,21 @@ __all__ = ["FORMS", "AUTO_SQRT_ABOVE", "resolve_form", "block_from_T", "T_from_b
 
 FORMS = ("auto", "ud", "sqrt", "covariance")
 #: ``form="auto"`` takes the square-root form for n above this; None: never.
-#: Measured (benchmarks/bench_rls_forms.py, BENCHMARKS of issue 19): the
-#: square-root kernel as it stands is slower than the U-D one at every n
-#: (0.11-0.12 x the fastest C loop at n = 32, 64 against U-D's 0.21-0.27 x), so
-#: "auto" is U-D everywhere until the sweep vectorises (see _kernels/_potter.py).
+#: Measured (benchmarks/bench_rls.py --forms, same-run ratios to the fastest C loop,
+#: 2 shared cores, quiet machine): since the vectorised Potter sweep the square-root
+#: form is the faster at n = 16, 32, 64 (1.86/0.63/0.61 x against U-D's
+#: 1.09/0.38/0.35 x); sqrt/U-D is 1.08, 1.01, 0.96 at n = 10, 12, 14 (a tie) and
+#: 1.34, 1.60 at n = 20, 24, so the switch would be at n ≥ 16 (AUTO_SQRT_ABOVE = 15). It is
+#: still None because RLS refuses what the square-root form lacks instead of
+#: falling back to U-D: ``P0="diffuse"`` with form="auto" and ``run(stats=True)``
+#: would raise for n above the switch (estimators/_rls.py decides both; see
+#: ``resolve_form(..., diffuse=)``).
 AUTO_SQRT_ABOVE = None
 
 
-def resolve_form(form, n, fast):
-    """The form an RLS of n parameters runs in ("ud", "sqrt" or "covariance")."""
+def resolve_form(form, n, fast, diffuse=False):
+    """The form an RLS of n parameters runs in ("ud", "sqrt" or "covariance");
+    "auto" is U-D with an exact diffuse start (``diffuse``: it hands over to U-D)."""
     form = check_choice(form, "form", FORMS)
     if not fast:
         if form in ("sqrt", "covariance"):
@@ -56,22 +62,24 @@ def resolve_form(form, n, fast):
                               "(they act on the U-D factors)", form)
         return "ud"
     if form == "auto":
-        return "sqrt" if AUTO_SQRT_ABOVE is not None and n > AUTO_SQRT_ABOVE else "ud"
+        big = AUTO_SQRT_ABOVE is not None and n > AUTO_SQRT_ABOVE
+        return "sqrt" if big and not diffuse else "ud"
     return form
 
 
-#: the covariance form is compiled for each n up to this (n a compile-time constant:
-#: LLVM keeps u and c in vector registers across the fused sweep, as gcc does for
-#: the C loop ``rls_fu_nN``); larger n use the generic kernel. The other forms
-#: follow ``adaptid._config.MAX_SPECIALISED_N``.
+#: the covariance and square-root forms are compiled for each n up to this (n a
+#: compile-time constant: LLVM keeps u and c in vector registers across the fused
+#: sweep, as gcc does for the C loop ``rls_fu_nN``, and the Potter sweep's work
+#: arrays are on the stack); larger n use the generic kernel. The U-D form follows
+#: ``adaptid._config.MAX_SPECIALISED_N``.
 COVARIANCE_SPECIALISED_N = 64
 
 
 def ntag_for(form, n, tag):
     """The size tag of an RLS in ``form`` (the engine's ``tag`` unless specialised here)."""
     import os
-    if form != "covariance" or not isinstance(tag, int) or n > COVARIANCE_SPECIALISED_N \
-            or os.environ.get("NUMBA_DISABLE_JIT") == "1":
+    if form not in ("covariance", "sqrt") or not isinstance(tag, int) \
+            or n > COVARIANCE_SPECIALISED_N or os.environ.get("NUMBA_DISABLE_JIT") == "1":
         return tag
     return (0,) * n
 
