@@ -22,12 +22,10 @@ The P update of sample k is fused with :math:`u = P\varphi_{k+1}` of the next
 From n = 8 on, :math:`\varphi^T u` is summed in 8 partial sums added as a
 tree (a chain of n/8 + 3 dependent adds instead of n).
 
-Per sample the kernel adds to the C loop only what the semantics need: the
-prior error ε is computed first and a non-finite ε is what triggers the exact
-check of φ and y (with θ finite, ε is finite only if φ and y are); 1/λ is
-recomputed only when λ changes; the definiteness test of the diagonal runs
-on its bits (integer min / max in the sweep, see :func:`_sweep`); θ and P
-live in stack copies (compile-time n) written back at the end.
+Per sample the kernel adds to the C loop only what the semantics need: a
+non-finite prior error ε triggers the exact check of φ and y (ε finite ⇒ φ, y
+finite); 1/λ is recomputed only when λ changes; the diagonal is checked on its
+bits (:func:`_sweep`); θ and P live in stack copies (P 64-byte aligned).
 
 Definiteness monitor and repair
 -------------------------------
@@ -83,8 +81,7 @@ def _stack64(typingctx, count):
 
 
 def _square(n):  # pragma: no cover - replaced by the overload in compiled code
-    """``np.empty((n, n))``; for compile-time n on the stack, rows of P start on a
-    cache line when 8 | n (a vector load of a row never straddles two lines)."""
+    """``np.empty((n, n))``; on the stack for compile-time n, rows on cache lines if 8 | n."""
     return np.empty((n, n))
 
 
