@@ -12,9 +12,20 @@ arithmetic is that of MATLAB's ``recursiveLS`` and of the C loop
     P_{ij} \leftarrow (P_{ij} - c_i c_j)/\lambda,
 
 where :math:`c_i c_j = c_j c_i` bit for bit keeps P exactly symmetric
-(Ljung & Söderström 1983, eq. 2.19, with the symmetric rank-one form). The
-P update of sample k is fused with :math:`u = P\varphi_{k+1}` of the next
+(Ljung & Söderström 1983, eq. 2.19, with the symmetric rank-one form). For
+n ≤ ``SQRT_FREE_N`` (4) the rank-one term is formed as
+:math:`(u_i u_j)\cdot(1/d)` instead (as symmetric, bit for bit, and the same
+in exact arithmetic): at these sizes the update is bound by the latency of one
+sample's chain of dependent operations, and this takes the square root off it.
+The P update of sample k is fused with :math:`u = P\varphi_{k+1}` of the next
 (``u += P[j, :] φⱼ``, an axpy LLVM vectorises); one sweep over P per sample.
+From n = 8 on, :math:`\varphi^T u` is summed in 8 partial sums added as a
+tree (a chain of n/8 + 3 dependent adds instead of n).
+
+Per sample the kernel adds to the C loop only what the semantics need: a
+non-finite prior error ε triggers the exact check of φ and y (ε finite ⇒ φ, y
+finite); 1/λ is recomputed only when λ changes; the diagonal is checked on its
+bits (:func:`_sweep`); θ and P live in stack copies (P 64-byte aligned).
 
 Definiteness monitor and repair
 -------------------------------
@@ -35,15 +46,54 @@ repaired, k the first repaired sample; else −1. ``update`` returns the bits
 NONPOSITIVE (windup) and REBUILT (repaired).
 """
 
+import numba
 import numpy as np
-from numba import prange
+from numba import prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic, overload
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _one_sample, _segment_start, _views
 from ._dims import dim
-from ._scratch import scratch, scratch2
+from ._scratch import scratch
 
 EPS = 2.220446049250313e-16
+#: the bits of +inf as an int64 (the definiteness monitor compares bits, see _sweep)
+BINF = 0x7FF0000000000000
+#: up to this n the rank-one term is (u uᵀ)/d, no square root on the critical path
+SQRT_FREE_N = 4
+
+
+@intrinsic
+def _stack64(typingctx, count):
+    """A stack array of ``count`` float64 aligned to 64 bytes (a cache line)."""
+    if not isinstance(count, types.IntegerLiteral) or count.literal_value <= 0:
+        return None
+    size = count.literal_value
+
+    def codegen(context, builder, signature, args):
+        ty = context.get_value_type(types.float64)
+        ptr = cgutils.alloca_once(builder, ty, size=context.get_constant(types.intp, size))
+        ptr.align = 64
+        return ptr
+
+    return types.CPointer(types.float64)(count), codegen
+
+
+def _square(n):  # pragma: no cover - replaced by the overload in compiled code
+    """``np.empty((n, n))``; on the stack for compile-time n, rows on cache lines if 8 | n."""
+    return np.empty((n, n))
+
+
+@overload(_square, inline="always", prefer_literal=True)
+def _square_impl(n):
+    if isinstance(n, types.IntegerLiteral) and n.literal_value > 0:
+        m = n.literal_value * n.literal_value
+
+        def impl(n):
+            return numba.carray(_stack64(m), (n, n))
+        return impl
+    return lambda n: np.empty((n, n))
 
 
 @njit(**NJIT)
@@ -87,64 +137,151 @@ def cov_repair(P):
 
 
 @njit(**NJIT_INLINE)
-def _matvec(P, phi, u, NP):
-    """u = Pφ as Σⱼ φⱼ P[j, :] (P symmetric): the sweep's arithmetic."""
+def _matvec(P, Phi, k, u, NP):
+    """u = Pφₖ as Σⱼ φⱼ P[j, :] (P symmetric): the sweep's arithmetic."""
     for i in range(NP):
         u[i] = 0.0
     for j in range(NP):
-        pj = phi[j]
+        pj = Phi[k, j]
         for i in range(NP):
             u[i] += P[j, i] * pj
 
 
 @njit(**NJIT_INLINE)
-def _sweep(P, c, u, il, nxt, dthr, NP):
-    """P ← (P − c cᵀ)/λ row by row, u ← P φ_next; returns (diag in (0, dthr), diag > 0)."""
+def _sweep(P, c, u, s, il, Phi, kn, bd, NP):
+    """P ← (P − c cᵀ·s)/λ row by row (s = 1/d when n ≤ SQRT_FREE_N, else c is
+    already u/√d), u ← P φ_next; returns (diag in (0, dthr), diag > 0).
+
+    The diagonal is checked on its bits (int64): for a double x and a
+    positive threshold with bits ``bd``, ``0 < x < thr`` ⇔ ``0 < bits(x) < bd``
+    and ``x > 0`` ⇔ ``0 < bits(x) ≤ bits(+inf)`` (NaN and negatives fail).
+    """
     for i in range(NP):
         u[i] = 0.0
-    inside = True
-    pos = True
+    Pb = P.view(np.int64)
+    lo = BINF
+    hi = 0
     for j in range(NP):
         cj = c[j]
-        pj = nxt[j]
-        for i in range(NP):
-            v = (P[j, i] - cj * c[i]) * il
-            P[j, i] = v
-            u[i] += v * pj
-        pjj = P[j, j]
-        inside &= (pjj > 0.0) & (pjj < dthr)
-        pos &= pjj > 0.0
-    return inside, pos
+        pj = Phi[kn, j]
+        if NP <= SQRT_FREE_N:
+            for i in range(NP):
+                v = (P[j, i] - (cj * c[i]) * s) * il
+                P[j, i] = v
+                u[i] += v * pj
+        else:
+            for i in range(NP):
+                v = (P[j, i] - cj * c[i]) * il
+                P[j, i] = v
+                u[i] += v * pj
+        b = Pb[j, j]
+        lo = min(lo, b)
+        hi = max(hi, b)
+    return (lo > 0) & (hi < bd), (lo > 0) & (hi <= BINF)
 
 
 @njit(**NJIT_INLINE)
-def _errors(theta, phi, Y, k, e, E, NP, p):
+def _prior_error(theta, Phi, Y, k, e, NP, p):
+    """e = y − Θᵀφ; whether every eⱼ is finite.
+
+    With θ finite, a finite eⱼ means φ and y are finite (a non-finite φᵢ or yⱼ
+    makes its term, and then the sum, non-finite: ∞·0 is NaN); a non-finite θ
+    makes every e non-finite, and the caller then checks the sample itself.
+    """
+    fin = True
     for j in range(p):
         s = Y[k, j]
         for i in range(NP):
-            s -= phi[i] * theta[i, j]
+            s -= Phi[k, i] * theta[i, j]
         e[j] = s
-        E[k, j] = s
+        fin &= s - s == 0.0
+    return fin
 
 
 @njit(**NJIT_INLINE)
-def _quad(phi, u, NP):
-    """(φᵀu, whether φ ≠ 0)."""
-    q = 0.0
+def _finite_sample(Phi, Y, k, NP, p):
+    ok = True
+    for i in range(NP):
+        ok &= Phi[k, i] - Phi[k, i] == 0.0
+    for j in range(p):
+        ok &= Y[k, j] - Y[k, j] == 0.0
+    return ok
+
+
+@njit(**NJIT_INLINE)
+def _quad(Phi, k, u, NP):
+    """φᵀu; from n = 8 on in 8 partial sums added as a tree (a short chain)."""
+    if NP < 8:
+        q = 0.0
+        for i in range(NP):
+            q += Phi[k, i] * u[i]
+        return q
+    a = scratch(8)
+    for m in range(8):
+        a[m] = Phi[k, m] * u[m]
+    top = NP - NP % 8
+    for i in range(8, top, 8):
+        for m in range(8):
+            a[m] += Phi[k, i + m] * u[i + m]
+    for m in range(4):
+        a[m] += a[m + 4]
+    for m in range(2):
+        a[m] += a[m + 2]
+    q = a[0] + a[1]
+    for i in range(top, NP):
+        q += Phi[k, i] * u[i]
+    return q
+
+
+@njit(**NJIT_INLINE)
+def _nonzero(Phi, k, NP):
     nz = False
     for i in range(NP):
-        q += phi[i] * u[i]
-        nz |= phi[i] != 0.0
-    return q, nz
+        nz |= Phi[k, i] != 0.0
+    return nz
+
+
+@njit(**NJIT_INLINE)
+def _local_copies(S, dthr, NP, p):
+    """θ and P copied out of the state (stack arrays for compile-time n), and the
+    bits of the windup threshold for :func:`_sweep` (1 if it is not positive)."""
+    theta_s, Ps, _ = _views(S, NP, p)
+    P = _square(NP)
+    for j in range(NP):
+        for i in range(NP):
+            P[j, i] = Ps[i, j]  # symmetric: the transpose is P itself
+    theta = (scratch(NP) if p == 1 else np.empty(NP * p)).reshape((NP, p))
+    for i in range(NP):
+        for j in range(p):
+            theta[i, j] = theta_s[i, j]
+    t = scratch(1)
+    t[0] = dthr
+    bd = t.view(np.int64)[0] if dthr > 0.0 else 1
+    return theta_s, Ps, theta, P, bd
+
+
+@njit(**NJIT_INLINE)
+def _measure(P, theta, u, c, e, Phi, k, kn, q, r, il, bd, NP, p):
+    """The update by a sample of weight > 0 (u = Pφₖ, q = φᵀu given); the fused sweep."""
+    d = r + q
+    idd = 1.0 / d
+    for i in range(NP):
+        g = u[i] * idd
+        for j in range(p):
+            theta[i, j] += g * e[j]
+    if NP <= SQRT_FREE_N:
+        for i in range(NP):
+            c[i] = u[i]
+        return _sweep(P, c, u, idd, il, Phi, kn, bd, NP)
+    sq = idd * np.sqrt(d)
+    for i in range(NP):
+        c[i] = u[i] * sq
+    return _sweep(P, c, u, 1.0, il, Phi, kn, bd, NP)
 
 
 @njit(**NJIT_INLINE)
 def _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
-    theta, Ps, _ = _views(S, NP, p)
-    P = scratch2(NP)
-    for j in range(NP):
-        for i in range(NP):
-            P[j, i] = Ps[i, j]  # symmetric: the transpose is P itself
+    theta_s, Ps, theta, P, bd = _local_copies(S, dthr, NP, p)
     u = scratch(NP)
     c = scratch(NP)
     e = scratch(p)
@@ -153,35 +290,29 @@ def _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
     fresh = False  # u = P Phi[k]
     bad = -1
     repaired = -1
+    lprev = np.nan
+    il = np.nan
     for k in range(N):
-        phi = Phi[k]
-        ok = True
-        for i in range(NP):
-            ok &= phi[i] - phi[i] == 0.0
-        for j in range(p):
-            ok &= Y[k, j] - Y[k, j] == 0.0
+        ok = _prior_error(theta, Phi, Y, k, e, NP, p) or _finite_sample(Phi, Y, k, NP, p)
         wk = w[k]
+        lk = lam[k]
+        if lk != lprev:  # 1/λ once per value of λ
+            lprev = lk
+            il = 1.0 / lk
         inside = True
         if ok and wk > 0.0:
             if not fresh:
-                _matvec(P, phi, u, NP)
-            q, nz = _quad(phi, u, NP)
-            if nz and not q > 0.0:
+                _matvec(P, Phi, k, u, NP)
+            q = _quad(Phi, k, u, NP)
+            if not q > 0.0 and _nonzero(Phi, k, NP):
                 cov_repair(P)
                 repaired = k if repaired < 0 else repaired
-                _matvec(P, phi, u, NP)
-                q, nz = _quad(phi, u, NP)
-            _errors(theta, phi, Y, k, e, E, NP, p)
-            d = lam[k] / wk + q
-            idd = 1.0 / d
-            sq = idd * np.sqrt(d)
-            for i in range(NP):
-                g = u[i] * idd
-                for j in range(p):
-                    theta[i, j] += g * e[j]
-                c[i] = u[i] * sq
-            inside, pos = _sweep(P, c, u, 1.0 / lam[k], Phi[k + 1] if k + 1 < N else phi,
-                                 dthr, NP)
+                _matvec(P, Phi, k, u, NP)
+                q = _quad(Phi, k, u, NP)
+            for j in range(p):
+                E[k, j] = e[j]
+            inside, pos = _measure(P, theta, u, c, e, Phi, k, k + 1 if k + 1 < N else k, q,
+                                   lk if wk == 1.0 else lk / wk, il, bd, NP, p)
             fresh = True
             if not pos:
                 cov_repair(P)
@@ -189,8 +320,8 @@ def _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
                 fresh = False
                 inside = _diag_inside(P, dthr, NP)
         elif ok:  # weight 0: the sample only advances the forgetting
-            _errors(theta, phi, Y, k, e, E, NP, p)
-            il = 1.0 / lam[k]
+            for j in range(p):
+                E[k, j] = e[j]
             for j in range(NP):
                 for i in range(NP):
                     P[j, i] *= il
@@ -210,6 +341,9 @@ def _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
     for j in range(NP):
         for i in range(NP):
             Ps[i, j] = P[j, i]
+    for i in range(NP):
+        for j in range(p):
+            theta_s[i, j] = theta[i, j]
     return bad if bad >= 0 else (-2 - repaired if repaired >= 0 else -1)
 
 
