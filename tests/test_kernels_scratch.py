@@ -108,6 +108,8 @@ def _run_with_tags(est, Phi, y, ntag, ptag):
     lambda n: __import__("adaptid").RLS(n, forgetting=__import__("adaptid").forgetting.Directional(0.97)),
     lambda n: __import__("adaptid").SlidingWindowRLS(n, 30, forgetting=0.99),
     lambda n: __import__("adaptid").KalmanRLS(n, process_cov=1e-4),
+    # (form="covariance" is compiled for n <= 64 whatever the engine's tags, generic
+    # kernels included: its generic build, for n > 64 only, is not bit for bit it)
     lambda n: __import__("adaptid").RLS(n, forgetting=0.98, form="sqrt"),
     lambda n: __import__("adaptid").RLS(n, forgetting=0.98, P0="diffuse"),
     lambda n: __import__("adaptid").SlidingWindowRLS(n, 30, P0="diffuse"),

@@ -143,6 +143,10 @@ class RecursiveEstimator:
     #: the kernel sums its own buffer for the statistics (else they continue row 0)
     _stats_from_buffer = False
 
+    def _before_stats(self):
+        """Called by a run with ``stats=True`` before its kernel (RLS: leave the
+        square-root form for the U-D form, whose stream computes the statistics)."""
+
     def __init__(self, n_params, *, theta0=None, P0=1e4, nan_policy="raise",
                  n_outputs=None, windup_threshold=None):
         n = check_int(n_params, "n_params", low=1)
@@ -684,6 +688,8 @@ class RecursiveEstimator:
         want = check_stats(self, stats, has_constant)
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
         lam = self._lam_run(forgetting, Phi.shape[:1])
+        if want:
+            self._before_stats()
         Th, E, skipped = self._alloc(Phi.shape[:1], store or want)
         Lk = np.empty(Phi.shape[0] if self._reports or self._diffuse else 0)
         St = stats_rows(self, Phi.shape[:1], want)
@@ -724,6 +730,8 @@ class RecursiveEstimator:
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True, precheck=False)
         shape_N = Phi.shape[:2]
         lam = self._lam_run(forgetting, shape_N)
+        if want:
+            self._before_stats()
         St = stats_rows(self, shape_N, want)
         S = self._prepare_batch(shape_N[0])
         Th, E, skipped = self._alloc(shape_N, store or want)

@@ -80,9 +80,10 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
         ``P_max`` always uses "ud"): U-D factors (Bierman), a square root
         P = S Sᵀ (Potter), or P itself,
         exactly symmetric, with a definiteness monitor that repairs P
-        (:class:`~adaptid.DefinitenessLossWarning`). "auto" (default): U-D (the
-        square-root kernel is not yet the faster one at any n; see
-        ``benchmarks/bench_rls_forms.py``). The C export (:meth:`to_c`) runs U-D. See
+        (:class:`~adaptid.DefinitenessLossWarning`). "auto" (default): U-D for
+        n ≤ 15 and with ``P0="diffuse"``, the square root above (the faster
+        form there, ``benchmarks/bench_rls_forms.py``); ``run(stats=True)``
+        continues a square-root estimator in U-D form. The C export (:meth:`to_c`) runs U-D. See
         :mod:`adaptid.estimators._rlsforms`; ``RLS.from_state(state, form=...)``
         converts a state between forms.
 
@@ -160,7 +161,8 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
             raise param_error("P0", "a positive scalar or an SPD matrix with a forgetting "
                               "strategy or P_max ('diffuse' needs constant or per-sample "
                               "exponential forgetting)", P0)
-        self._form = resolve_form(form, check_int(n_params, "n_params", low=1), self._fast)
+        self._form = resolve_form(form, check_int(n_params, "n_params", low=1), self._fast,
+                                  diffuse=isinstance(P0, str))
         if isinstance(P0, str) and self._form != "ud":
             raise param_error("form", "'auto' or 'ud' with P0='diffuse' (the exact diffuse start "
                               "hands over to the U-D form)", form)
@@ -186,7 +188,9 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
 
     @property
     def _supports_stats(self):
-        return self._fast and self._form == "ud"  # the statistics hooks are in the U-D stream
+        # the statistics hooks are in the U-D stream; the square-root form hands over to it
+        # (FormsMixin._before_stats), the covariance form (MATLAB's arithmetic) has none
+        return self._fast and self._form in ("ud", "sqrt")
 
     def _entries(self):
         if self._diffuse:

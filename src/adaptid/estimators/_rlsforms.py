@@ -9,9 +9,9 @@ exponential (no strategy, no ``P_max``; those run on the U-D factors only):
 * ``"covariance"`` — P itself, exactly symmetric (MATLAB ``recursiveLS``
   arithmetic), with a definiteness monitor that repairs P,
   :mod:`adaptid._kernels._covariance`;
-* ``"auto"`` (default) — U-D for n ≤ :data:`AUTO_SQRT_ABOVE`, the square-root
-  form above; :data:`AUTO_SQRT_ABOVE` is None (U-D at every n) while the
-  square-root kernel is not the faster one (``benchmarks/bench_rls_forms.py``).
+* ``"auto"`` (default) — U-D for n ≤ :data:`AUTO_SQRT_ABOVE` (15) and for an
+  exact diffuse start, the square-root form above (the faster one there,
+  ``benchmarks/bench_rls_forms.py``).
 
 The state vector keeps one length for all forms, ``[θ | n·n block | n]``: U by
 columns and D; S by columns and zeros; P and zeros.
@@ -44,12 +44,10 @@ FORMS = ("auto", "ud", "sqrt", "covariance")
 #: 2 shared cores, quiet machine): since the vectorised Potter sweep the square-root
 #: form is the faster at n = 16, 32, 64 (1.86/0.63/0.61 x against U-D's
 #: 1.09/0.38/0.35 x); sqrt/U-D is 1.08, 1.01, 0.96 at n = 10, 12, 14 (a tie) and
-#: 1.34, 1.60 at n = 20, 24, so the switch would be at n ≥ 16 (AUTO_SQRT_ABOVE = 15). It is
-#: still None because RLS refuses what the square-root form lacks instead of
-#: falling back to U-D: ``P0="diffuse"`` with form="auto" and ``run(stats=True)``
-#: would raise for n above the switch (estimators/_rls.py decides both; see
-#: ``resolve_form(..., diffuse=)``).
-AUTO_SQRT_ABOVE = None
+#: 1.34, 1.60 at n = 20, 24: the switch is at n >= 16. An exact diffuse start
+#: (``P0="diffuse"``) stays in U-D (it hands over to U-D factors); ``run(stats=True)``
+#: continues an estimator in U-D form (:meth:`FormsMixin._before_stats`).
+AUTO_SQRT_ABOVE = 15
 
 
 def resolve_form(form, n, fast, diffuse=False):
@@ -234,6 +232,14 @@ class FormsMixin:
         if self._form != "covariance":
             return super()._warn_rebuild(count)
         return self._warn_definiteness(self.n_updates)
+
+    def _before_stats(self):
+        """``run(stats=True)`` computes the statistics in the U-D stream: an estimator in
+        the square-root form (``form="auto"`` above n = :data:`AUTO_SQRT_ABOVE`) continues
+        in the U-D form from here on, its state converted (exact up to rounding)."""
+        if self._form == "sqrt":
+            other = type(self).from_state(self.get_state(), form="ud")
+            self.__dict__.update(other.__dict__)
 
     def to_c(self, directory, *, name="rls", dtype="float64"):
         """The C export runs the U-D form: other forms are exported from their state
