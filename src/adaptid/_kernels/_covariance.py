@@ -46,54 +46,19 @@ repaired, k the first repaired sample; else −1. ``update`` returns the bits
 NONPOSITIVE (windup) and REBUILT (repaired).
 """
 
-import numba
 import numpy as np
-from numba import prange, types
-from numba.core import cgutils
-from numba.extending import intrinsic, overload
+from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _one_sample, _segment_start, _views
 from ._dims import dim
-from ._scratch import scratch
+from ._scratch import scratch, scratch2_lines
 
 EPS = 2.220446049250313e-16
 #: the bits of +inf as an int64 (the definiteness monitor compares bits, see _sweep)
 BINF = 0x7FF0000000000000
 #: up to this n the rank-one term is (u uᵀ)/d, no square root on the critical path
 SQRT_FREE_N = 4
-
-
-@intrinsic
-def _stack64(typingctx, count):
-    """A stack array of ``count`` float64 aligned to 64 bytes (a cache line)."""
-    if not isinstance(count, types.IntegerLiteral) or count.literal_value <= 0:
-        return None
-    size = count.literal_value
-
-    def codegen(context, builder, signature, args):
-        ty = context.get_value_type(types.float64)
-        ptr = cgutils.alloca_once(builder, ty, size=context.get_constant(types.intp, size))
-        ptr.align = 64
-        return ptr
-
-    return types.CPointer(types.float64)(count), codegen
-
-
-def _square(n):  # pragma: no cover - replaced by the overload in compiled code
-    """``np.empty((n, n))``; on the stack for compile-time n, rows on cache lines if 8 | n."""
-    return np.empty((n, n))
-
-
-@overload(_square, inline="always", prefer_literal=True)
-def _square_impl(n):
-    if isinstance(n, types.IntegerLiteral) and n.literal_value > 0:
-        m = n.literal_value * n.literal_value
-
-        def impl(n):
-            return numba.carray(_stack64(m), (n, n))
-        return impl
-    return lambda n: np.empty((n, n))
 
 
 @njit(**NJIT)
@@ -246,7 +211,7 @@ def _local_copies(S, dthr, NP, p):
     """θ and P copied out of the state (stack arrays for compile-time n), and the
     bits of the windup threshold for :func:`_sweep` (1 if it is not positive)."""
     theta_s, Ps, _ = _views(S, NP, p)
-    P = _square(NP)
+    P = scratch2_lines(NP)
     for j in range(NP):
         for i in range(NP):
             P[j, i] = Ps[i, j]  # symmetric: the transpose is P itself
