@@ -51,7 +51,8 @@ def _python(code, cache, tmp_path, **env):
 def test_helper_compiles_the_signatures_the_demo_calls(tmp_path):
     cache = tmp_path / "cache"
     cache.mkdir(mode=0o700)
-    _python("from adaptid.cli._prewarm import _compile; _compile(('window',))", cache, tmp_path)
+    _python("from adaptid.cli._demo import compile_kernels; compile_kernels(('window',))", cache,
+            tmp_path)
     out = json.loads(_python(DEMO_WINDOW_FIT, cache, tmp_path).splitlines()[-1])
     assert out["misses"] == 0 and out["hits"] >= 1     # loaded, not compiled again
     # control: on an empty cache folder the same fit compiles (a miss)
@@ -66,10 +67,10 @@ def test_no_helper_where_it_cannot_help(monkeypatch):
     from adaptid import _config
 
     monkeypatch.setenv("ADAPTID_PREWARM", "0")
-    assert _prewarm.start(("window",)) is None
+    assert _prewarm.start("adaptid.cli._demo", "compile_kernels", ("window",)) is None
     monkeypatch.delenv("ADAPTID_PREWARM")
     monkeypatch.setattr(_config, "CACHE", False)   # nothing cached: a helper cannot hand over
-    assert _prewarm.start(("window",)) is None
+    assert _prewarm.start("adaptid.cli._demo", "compile_kernels", ("window",)) is None
     _prewarm.wait(None)                            # waiting for no helper is a no-op
 
 

@@ -267,7 +267,7 @@ def test_generic_kernel_n18_bitwise(tmp_path, forgetting):
     rng = np.random.default_rng(18)
     Phi = rng.standard_normal((5_000, 18))
     y = Phi @ rng.standard_normal(18) + 0.1 * rng.standard_normal(5_000)
-    est = adaptid.RLS(18, forgetting=forgetting)
+    est = adaptid.RLS(18, forgetting=forgetting, form="ud")  # the C code runs U-D
     tr = est.copy().run(Phi, y)
     fma = _host_has_fma()
     exe = _build(est, tmp_path, flags=(["-DEST_USE_FMA", "-mfma"] if fma else ["-ffp-contract=off"]))

@@ -200,9 +200,11 @@ def test_form_validation_and_auto():
     with pytest.raises(ValueError, match="form must be 'ud' or 'auto'"):
         adaptid.RLS(3, forgetting=0.98, P_max=10.0, form="covariance")
     assert adaptid.RLS(3, P_max=10.0).form == "ud"
-    assert adaptid.RLS(16).form == "ud"
-    big = AUTO_SQRT_ABOVE + 1 if AUTO_SQRT_ABOVE is not None else 64
-    assert adaptid.RLS(big).form == ("sqrt" if AUTO_SQRT_ABOVE is not None else "ud")
+    assert AUTO_SQRT_ABOVE == 15                     # the measured crossover (_rlsforms)
+    assert adaptid.RLS(15).form == "ud"
+    assert adaptid.RLS(16).form == "sqrt"
+    assert adaptid.RLS(16, P0="diffuse").form == "ud"  # the diffuse start hands over to U-D
+    assert adaptid.RLS(16, P_max=10.0).form == "ud"
     assert adaptid.estimator("rls", 3, form="covariance").form == "covariance"
 
 
@@ -315,3 +317,20 @@ def test_auto_switch_rule_when_a_threshold_is_set(monkeypatch):
     assert rf.resolve_form("ud", 40, True) == "ud"
     monkeypatch.setattr(rf, "AUTO_SQRT_ABOVE", None)
     assert rf.resolve_form("auto", 64, True) == "ud"
+
+
+def test_auto_square_root_estimator_runs_stats_in_ud_form(rng):
+    """form="auto" above the switch runs in the square-root form; run(stats=True)
+    continues in U-D form and gives what an explicit U-D estimator gives."""
+    n, N = 20, 300
+    Phi = rng.standard_normal((N, n))
+    y = Phi @ np.ones(n) + rng.standard_normal(N)
+    auto = adaptid.RLS(n, forgetting=0.99)
+    assert auto.form == "sqrt"
+    got = auto.run(Phi, y, stats=True)
+    assert auto.form == "ud"
+    ref = adaptid.RLS(n, forgetting=0.99, form="ud").run(Phi, y, stats=True)
+    np.testing.assert_allclose(got.theta, ref.theta, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(got.stats.sigma2, ref.stats.sigma2, rtol=1e-12, equal_nan=True)
+    with pytest.raises(ValueError, match="stats"):
+        adaptid.RLS(n, forgetting=0.99, form="covariance").run(Phi, y, stats=True)

@@ -78,6 +78,21 @@ def demo_spec(method, *, theta=None, sigma2=None):
     return _KalmanSpec(theta, sigma2)
 
 
+def compile_kernels(methods):
+    """In :mod:`._prewarm`'s helper: run each method's estimator as the demo makes it
+    (generic kernels, the same array types) on a few rows of zeros."""
+    from adaptid.estimators import size_generic_kernels
+
+    from ._engine import run_chunked
+
+    Phi = np.zeros((4, 3))
+    y = np.zeros(4)
+    with size_generic_kernels():
+        for m in methods:
+            est = demo_spec(m, theta=np.ones(3), sigma2=1.0).make(3, "raise")
+            run_chunked(est, Phi, y, n_chunks=2)
+
+
 def _specs(regs, dt):
     import adaptid
 
@@ -114,7 +129,8 @@ class _KalmanSpec(MethodSpec):
 
 def run_demo(*, out_dir, seed: int, output: Output) -> dict:
     t0 = _time.perf_counter()
-    helper = _prewarm.start(PREWARMED)  # compiles the window's kernels meanwhile
+    # a helper process compiles the window's kernels meanwhile
+    helper = _prewarm.start(__name__, "compile_kernels", PREWARMED)
     try:
         from adaptid.datasets import dc_motor
         from adaptid.models import dc_motor_regressors

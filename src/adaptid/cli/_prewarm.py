@@ -22,11 +22,12 @@ import sys
 
 __all__ = ["start", "wait"]
 
-_CHILD = "from adaptid.cli._prewarm import _compile; _compile({methods!r})"
+_CHILD = "from {module} import {function}; {function}({args!r})"
 
 
-def start(methods):
-    """Start compiling the kernels of the demo's ``methods`` in a helper process.
+def start(module, function, args):
+    """Start ``module.function(args)`` in a helper process: it compiles kernels by
+    running them on small inputs (e.g. :func:`adaptid.cli._demo.compile_kernels`).
 
     Returns the process, or None where a helper would not help (see the module).
     """
@@ -38,7 +39,8 @@ def start(methods):
     env = dict(os.environ, ADAPTID_PREWARM="0",
                PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     try:
-        return subprocess.Popen([sys.executable, "-c", _CHILD.format(methods=tuple(methods))],
+        code = _CHILD.format(module=module, function=function, args=args)
+        return subprocess.Popen([sys.executable, "-c", code],
                                 env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
     except OSError:
@@ -54,19 +56,3 @@ def wait(proc, timeout=120.0):
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
-
-
-def _compile(methods):
-    """In the helper: run each method's estimator as the demo makes it, on zeros."""
-    import numpy as np
-
-    from ..estimators import size_generic_kernels
-    from ._demo import demo_spec
-    from ._engine import run_chunked
-
-    Phi = np.zeros((4, 3))
-    y = np.zeros(4)
-    with size_generic_kernels():
-        for m in methods:
-            est = demo_spec(m, theta=np.ones(3), sigma2=1.0).make(3, "raise")
-            run_chunked(est, Phi, y, n_chunks=2)

@@ -35,7 +35,10 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
     the compiled kernel's operations in the same order: the U-D measurement
     update of Bierman (1977, ch. V), forgetting as ``D ← D/λ`` before it,
     the sliding window's add-then-remove of Yamamoto (1991, eqs. 62–65), the
-    Kalman time update of Ljung & Söderström (1983, eq. 2.114):
+    Kalman time update of Ljung & Söderström (1983, eq. 2.114). An RLS in the
+    square-root or covariance form (``form="auto"`` is the square root for
+    n ≥ 16) is exported from its state converted to U-D, exact up to rounding:
+    the C code then continues the U-D recursion.
 
     .. math::
 
@@ -98,7 +101,10 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
         from .._validation import param_error
         raise param_error("est", "an adaptid RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS",
                           est, exc=TypeError)
-    return write(est.get_state(), directory, name=name, dtype=dtype)
+    state = est.get_state()
+    if getattr(est, "form", "ud") != "ud":  # RLS in the square-root / covariance form
+        state = type(est).from_state(state, form="ud").get_state()
+    return write(state, directory, name=name, dtype=dtype)
 
 
 def generate_c(state, *, name="rls", dtype="float64"):
