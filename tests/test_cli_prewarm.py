@@ -74,6 +74,23 @@ def test_no_helper_where_it_cannot_help(monkeypatch):
     _prewarm.wait(None)                            # waiting for no helper is a no-op
 
 
+def test_no_helper_when_the_kernels_are_cached(monkeypatch, tmp_path):
+    """A warm install: the helper would only make the command wait for it."""
+    from adaptid import _config
+
+    monkeypatch.delenv("ADAPTID_PREWARM", raising=False)
+    monkeypatch.setattr(_config, "CACHE", True)
+    monkeypatch.setattr(_config, "CACHE_DIR", str(tmp_path))
+    names = ("_window._window_core", "_window.window_run")
+    (tmp_path / "_window._window_core-90.py311.nbi").write_bytes(b"")
+    assert not _prewarm._cached("_window.window_run")
+    proc = _prewarm.start("time", "sleep", 0, unless_cached=names)   # one missing: a helper
+    assert proc is not None
+    _prewarm.wait(proc)
+    (tmp_path / "_window.window_run-210.py311.nbi").write_bytes(b"")
+    assert _prewarm.start("time", "sleep", 0, unless_cached=names) is None
+
+
 def test_a_stuck_helper_is_killed():
     proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     _prewarm.wait(proc, timeout=0.5)

@@ -130,7 +130,8 @@ class _KalmanSpec(MethodSpec):
 def run_demo(*, out_dir, seed: int, output: Output) -> dict:
     t0 = _time.perf_counter()
     # a helper process compiles the window's kernels meanwhile
-    helper = _prewarm.start(__name__, "compile_kernels", PREWARMED)
+    helper = _prewarm.start(__name__, "compile_kernels", PREWARMED,
+                            unless_cached=("_window._window_core", "_window.window_run"))
     try:
         from adaptid.datasets import dc_motor
         from adaptid.models import dc_motor_regressors

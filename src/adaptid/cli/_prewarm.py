@@ -16,6 +16,7 @@ fails, it is slow) the command compiles the kernel itself, with the same
 result: the cache only ever holds what numba compiled from the same source.
 """
 
+import glob
 import os
 import subprocess
 import sys
@@ -25,16 +26,29 @@ __all__ = ["start", "wait"]
 _CHILD = "from {module} import {function}; {function}({args!r})"
 
 
-def start(module, function, args):
+def _cached(kernel):
+    """Whether numba's cache folder already holds an index for ``kernel``
+    ("<module>.<function>" of adaptid/_kernels, e.g. "_window._window_core")."""
+    from .. import _config
+
+    folder = _config.CACHE_DIR
+    return bool(folder) and any(glob.glob(os.path.join(glob.escape(folder), kernel + "-*.nbi")))
+
+
+def start(module, function, args, *, unless_cached=()):
     """Start ``module.function(args)`` in a helper process: it compiles kernels by
     running them on small inputs (e.g. :func:`adaptid.cli._demo.compile_kernels`).
 
-    Returns the process, or None where a helper would not help (see the module).
+    Returns the process, or None where a helper would not help (see the module), or
+    when every kernel of ``unless_cached`` (names as for :func:`_cached`) is already
+    in the cache (a warm install: the helper would only delay the command).
     """
     from .. import _config
 
     if not _config.CACHE or os.environ.get("ADAPTID_PREWARM", "1") == "0" \
             or (os.cpu_count() or 1) < 2:
+        return None
+    if unless_cached and all(_cached(k) for k in unless_cached):
         return None
     env = dict(os.environ, ADAPTID_PREWARM="0",
                PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
