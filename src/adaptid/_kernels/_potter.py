@@ -62,7 +62,7 @@ from numba.extending import intrinsic, overload
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, SKIPPED, _one_sample, _segment_start, _views
 from ._dims import dim
-from ._scratch import scratch, scratch2
+from ._scratch import scratch, scratch2_lines
 
 _OPTS = {"fastmath": NJIT["fastmath"]}
 
@@ -297,7 +297,7 @@ def _gain(q, h, a, theta, e, lam, wk, NP, p):
 @njit(**NJIT_INLINE)
 def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
     theta, Fs, _ = _views(S, NP, p)
-    F = scratch2(NP).T  # by columns, as in S
+    F = scratch2_lines(NP).T  # by columns, as in S (rows of the stack copy on cache lines)
     for j in range(NP):
         for i in range(NP):
             F[i, j] = Fs[i, j]
