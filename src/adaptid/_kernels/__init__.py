@@ -36,7 +36,13 @@ _install_cache()  # before any kernel module is imported (they are submodules of
 
 
 class Entries(NamedTuple):
-    """The four compiled entry points of one algorithm (one signature for all)."""
+    """The compiled entry points of one algorithm (one signature for all).
+
+    ``update`` is None except where ``run``'s code cannot serve a single step
+    (the sliding window, whose run reports re-solves rather than the first bad
+    sample): elsewhere one update is a run of length 1 through ``run``
+    (:meth:`adaptid.estimators._engine.RecursiveEstimator.update`).
+    """
 
     update: object
     run: object
@@ -47,8 +53,9 @@ class Entries(NamedTuple):
 def _entries(module, prefix):
     import importlib
     mod = importlib.import_module(f"adaptid._kernels.{module}")
-    return Entries(*(getattr(mod, f"{prefix}_{what}")
-                     for what in ("update", "run", "run_batched", "run_segments")))
+    return Entries(getattr(mod, f"{prefix}_update", None),
+                   *(getattr(mod, f"{prefix}_{what}")
+                     for what in ("run", "run_batched", "run_segments")))
 
 
 def __getattr__(name):

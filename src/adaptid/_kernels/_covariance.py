@@ -50,7 +50,7 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _one_sample, _segment_start, _views
+from ._bierman import _segment_start, _views
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
 
@@ -318,21 +318,6 @@ def _diag_inside(P, dthr, NP):
     for i in range(NP):
         inside &= (P[i, i] > 0.0) & (P[i, i] < dthr)
     return inside
-
-
-@njit(**NJIT)
-def cov_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One step through the same compiled code as :func:`cov_run` (status bits)."""
-    NP = dim(ntag)
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    code = _cov_stream(S, Phi, Y, lam1, w1, Th, E, skipped, opt[0], NP, dim(ptag))
-    if skipped[0]:
-        return SKIPPED
-    if code >= 0:
-        return NONPOSITIVE
-    if code <= -2:
-        return REBUILT
-    return 0
 
 
 @njit(**NJIT)

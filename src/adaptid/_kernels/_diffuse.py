@@ -58,13 +58,12 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, SKIPPED, _finite_row, _one_sample, _prior_errors, \
-    _segment_start, _store, _views
-from ._dims import dim
-from ._kalman import _kalman_stream
-from ._rls import _rls_stream
+from ._bierman import SKIPPED, _finite_row, _one_sample, _prior_errors, _segment_start, \
+    _store, _views
+from ._dims import dim, size_tag
+from ._rls import _rls_core
 from ._rollstats import rows_from, srif_hook, sub, window_direct_hook, window_end_hook
-from ._window import _window_stream_flat, _window_views
+from ._window import _window_core, _window_views
 
 
 # --------------------------------------------------------------- SRIF blocks
@@ -216,21 +215,9 @@ def _rls_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, dthr, rcond, 
         Lk[i] = 1.0
     if k == N:
         return -1
-    bad = _rls_stream(S, Phi[k:], Y[k:], lam[k:], w[k:], _rest(Th, k, N), E[k:],
-                      skipped[k:], rows_from(St, k), dthr, NP, p)
+    bad = _rls_core(S, Phi[k:], Y[k:], lam[k:], w[k:], _rest(Th, k, N), E[k:], skipped[k:],
+                    rows_from(St, k), dthr, size_tag(NP), size_tag(p))
     return bad + k if bad >= 0 else -1
-
-
-@njit(**NJIT)
-def rls_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One step of diffuse RLS through the same code as :func:`rls_diffuse_run`."""
-    NP = dim(ntag)
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _rls_diffuse_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, None, opt[0], opt[1],
-                              NP, dim(ptag))
-    if skipped[0]:
-        return SKIPPED
-    return NONPOSITIVE if bad >= 0 else 0
 
 
 @njit(**NJIT)
@@ -338,9 +325,9 @@ def _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, M, rtol, r
             j = k
         else:
             S[flag + 1] = -1.0  # set by the stream if a removal needs a re-solve
-            rebuilds += _window_stream_flat(S, Phi[k:], Y[k:], lam[k:], w[k:], _rest(Th, k, N),
-                                            E[k:], skipped[k:], rows_from(St, k), M, rtol, NP,
-                                            p, True)
+            rebuilds += _window_core(S, Phi[k:], Y[k:], lam[k:], w[k:], _rest(Th, k, N), E[k:],
+                                     skipped[k:], rows_from(St, k), M, rtol, size_tag(NP),
+                                     size_tag(p), True)
             j = N - 1 if S[flag + 1] < 0.0 else k + int(S[flag + 1]) - 1
             for i in range(k, j):
                 Lk[i] = 1.0

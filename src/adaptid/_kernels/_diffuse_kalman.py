@@ -16,11 +16,11 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, SKIPPED, _finite_row, _one_sample, _prior_errors, \
-    _segment_start, _store, _udu_factor, _views
+from ._bierman import _finite_row, _prior_errors, _segment_start, _store, _udu_factor, \
+    _views
 from ._diffuse import _rest
-from ._dims import dim
-from ._kalman import _kalman_stream
+from ._dims import dim, size_tag
+from ._kalman import _kalman_core
 
 
 @njit(**NJIT)
@@ -116,25 +116,11 @@ def _kalman_diffuse_stream(S, Phi, Y, w, Th, E, skipped, Lk, opt, Q, NP, p):
         Lk[i] = 1.0
     if k == N:
         return bad
-    b2 = _kalman_stream(S, Phi[k:], Y[k:], w[k:], _rest(Th, k, N), E[k:], skipped[k:], opt, Q,
-                        NP, p)
+    b2 = _kalman_core(S, Phi[k:], Y[k:], w[k:], _rest(Th, k, N), E[k:], skipped[k:], opt, Q,
+                      size_tag(NP), size_tag(p))
     if bad < 0 and b2 >= 0:
         bad = b2 + k
     return bad
-
-
-@njit(**NJIT)
-def kalman_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One step of the diffuse Kalman filter through the same code as its run."""
-    NP = dim(ntag)
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _kalman_diffuse_stream(S, Phi, Y, w1, Th, E, skipped, lk, opt, mat, NP, dim(ptag))
-    status = 0
-    if skipped[0]:
-        status |= SKIPPED
-    if bad >= 0:
-        status |= NONPOSITIVE
-    return status
 
 
 @njit(**NJIT)

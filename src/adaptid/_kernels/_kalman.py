@@ -12,10 +12,9 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply, _bierman_prep, _d_below, \
-    _finite_row, _gain_step, _one_sample, _prior_errors, _segment_start, _store, \
-    _time_update, _views
-from ._dims import dim, size_tag
+from ._bierman import _bierman_apply, _bierman_prep, _d_below, _finite_row, _gain_step, \
+    _prior_errors, _segment_start, _store, _time_update, _views
+from ._dims import dim
 
 
 @njit(**NJIT_INLINE)
@@ -28,16 +27,10 @@ def _kalman_step(theta, U, D, phi, y, r2, w, Q, e, f, v, b, W, NP, p):
     return _time_update(U, D, Q, W, NP)
 
 
-
-@njit(**NJIT_INLINE)
-def _kalman_stream(S, Phi, Y, w, Th, E, skipped, opt, Q, NP, p):
-    """:func:`_kalman_core` for callers that hold n and p as sizes (not tags)."""
-    return _kalman_core(S, Phi, Y, w, Th, E, skipped, opt, Q, size_tag(NP), size_tag(p))
-
-
 @njit(**NJIT)
 def _kalman_core(S, Phi, Y, w, Th, E, skipped, opt, Q, ntag, ptag):
-    # Called, not inlined (compiled once per types and tags; see _rls._rls_core).
+    # Called, not inlined, by the entry points (compiled once per types and tags; see
+    # _rls._rls_core); other kernels pass size_tag(n).
     NP = dim(ntag)
     p = dim(ptag)
     dthr = opt[0]
@@ -68,42 +61,24 @@ def _kalman_core(S, Phi, Y, w, Th, E, skipped, opt, Q, ntag, ptag):
 
 
 @njit(**NJIT)
-def kalman_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One Kalman step through the same compiled code as :func:`kalman_run`."""
-    NP = dim(ntag)
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _kalman_stream(S, Phi, Y, w1, Th, E, skipped, opt, mat, NP, dim(ptag))
-    status = 0
-    if skipped[0]:
-        status |= SKIPPED
-    if bad >= 0:
-        status |= NONPOSITIVE
-    return status
-
-
-@njit(**NJIT)
 def kalman_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N Kalman steps; returns the first sample at which P lost definiteness or
     a pivot passed the windup threshold, or -1."""
-    return _kalman_stream(S, Phi, Y, w, Th, E, skipped, opt, mat, dim(ntag), dim(ptag))
+    return _kalman_core(S, Phi, Y, w, Th, E, skipped, opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def kalman_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _kalman_stream(S[s], Phi[s], Y[s], w[s], Th[s], E[s], skipped[s], opt, mat,
-                                  NP, p)
+        codes[s] = _kalman_core(S[s], Phi[s], Y[s], w[s], Th[s], E[s], skipped[s], opt, mat,
+                                ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def kalman_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat, codes,
                         ntag, ptag):
     """G Kalman streams back to back, each from S0 (see :func:`._rls.rls_run_segments`)."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _kalman_stream(S, Phi[a:z], Y[a:z], w[a:z], Th[a:z], E[a:z], skipped[a:z],
-                                  opt, mat, NP, p)
+        codes[g] = _kalman_core(S, Phi[a:z], Y[a:z], w[a:z], Th[a:z], E[a:z], skipped[a:z],
+                                opt, mat, ntag, ptag)

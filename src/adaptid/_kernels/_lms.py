@@ -3,7 +3,6 @@ r"""LMS and normalised LMS (stochastic gradient): the estimators without a covar
 Entry points share one signature with every other algorithm (see
 :mod:`adaptid._kernels._rls`)::
 
-    update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag) -> status bits
     run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag) -> code
     run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag)
     run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
@@ -35,7 +34,7 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, SKIPPED, _finite_row, _one_sample, _segment_start
+from ._bierman import _finite_row, _segment_start
 from ._dims import dim
 from ._scratch import scratch, small_scratch
 
@@ -132,25 +131,7 @@ def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
     return bad
 
 
-@njit(**NJIT_INLINE)
-def _update(S, phi, y, e, lam, w, opt, NP, p, norm):
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _lms_stream(S, Phi, Y, w1, Th, E, skipped, opt, NP, p, norm)
-    if skipped[0]:
-        return SKIPPED
-    if bad >= 0:
-        return NONPOSITIVE
-    return 0
-
-
 # ---------------------------------------------------------------- LMS
-@njit(**NJIT)
-def lms_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One LMS step through the same compiled code as :func:`lms_run`; status bits
-    (the state is untouched when SKIPPED)."""
-    return _update(S, phi, y, e, lam, w, opt, dim(ntag), dim(ptag), False)
-
-
 @njit(**NJIT)
 def lms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N LMS steps; returns the first sample whose error is not finite (divergence), or -1."""
@@ -181,12 +162,6 @@ def lms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, 
 
 
 # ---------------------------------------------------------------- NLMS
-@njit(**NJIT)
-def nlms_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One NLMS step through the same compiled code as :func:`nlms_run`."""
-    return _update(S, phi, y, e, lam, w, opt, dim(ntag), dim(ptag), True)
-
-
 @njit(**NJIT)
 def nlms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N NLMS steps; returns as :func:`lms_run`."""

@@ -60,7 +60,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, SKIPPED, _one_sample, _segment_start, _views
+from ._bierman import _segment_start, _views
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
 
@@ -355,19 +355,6 @@ def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
         for i in range(NP):
             Fs[i, j] = F[i, j]
     return bad
-
-
-@njit(**NJIT)
-def potter_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One step through the same compiled code as :func:`potter_run` (status bits)."""
-    NP = dim(ntag)
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _potter_stream(S, Phi, Y, lam1, w1, Th, E, skipped, opt[0], NP, dim(ptag))
-    if skipped[0]:
-        return SKIPPED
-    if bad >= 0:
-        return NONPOSITIVE
-    return 0
 
 
 @njit(**NJIT)

@@ -3,7 +3,6 @@ r"""RLS with exponential forgetting, weights and prior (ridge): the headline str
 Entry points share one signature with every other algorithm (see
 :mod:`adaptid.estimators._engine`)::
 
-    update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag) -> status bits
     run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag) -> code
     run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag)
     run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
@@ -22,17 +21,11 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, SKIPPED, _bierman_apply_pairs, _bierman_prep, _copy_factor, \
-    _one_sample, _segment_start, _views
-from ._dims import dim, size_tag
+from ._bierman import _bierman_apply_pairs, _bierman_prep, _copy_factor, _segment_start, \
+    _views
+from ._dims import dim
 from ._rollstats import rls_hook, sub
 from ._scratch import scratch, scratch2, small_scratch
-
-@njit(**NJIT_INLINE)
-def _rls_stream(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, NP, p):
-    """:func:`_rls_core` for callers that hold n and p as sizes (not tags)."""
-    return _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, size_tag(NP), size_tag(p))
-
 
 @njit(**NJIT)
 def _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag):
@@ -114,23 +107,6 @@ def _rls_body(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag):
         rls_hook(St, k, ok, Y, lam, wk, e, a, U, D, NP, p)  # nothing when St is None
     _copy_factor(U, D, Us, Ds, NP)
     return bad
-
-
-
-@njit(**NJIT)
-def rls_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One RLS step through the same compiled code as :func:`rls_run`.
-
-    Returns status bits; the state is untouched when SKIPPED.
-    """
-    NP = dim(ntag)
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    bad = _rls_core(S, Phi, Y, lam1, w1, Th, E, skipped, None, opt[0], ntag, ptag)
-    if skipped[0]:
-        return SKIPPED
-    if bad >= 0:
-        return NONPOSITIVE
-    return 0
 
 
 @njit(**NJIT)

@@ -1,6 +1,5 @@
 """Statistics of segmented runs (streams stored back to back)."""
 
-import numpy as np
 from numba import prange
 
 from .._config import NJIT_PARALLEL, njit

@@ -7,7 +7,7 @@ serves several streams. A block's state lives in lane-major arrays
 (``U[i, j, l]``, ``D[0, i, l]``, ``θ[0, i, l]``, lane l innermost); ``CHUNK``
 samples of its Φ and y are transposed into lane-major scratch, the steps run,
 and ε, the skipped flags and θ are scattered back. A step is one loop over the
-lanes whose body is :func:`._rls._rls_stream`'s update of lane l, the same
+lanes whose body is :func:`._rls._rls_body`'s update of lane l, the same
 operations in the same order (Bierman stages two at a time, as
 :func:`._bierman._bierman_apply_pairs`), n a compile-time constant; LLVM
 vectorises that loop (zmm with AVX-512), so each lane's bits equal the scalar
@@ -150,7 +150,7 @@ def _lane_bierman(U, D, f, v, b, r, il, ok, upd, l, NP):
 
 @njit(**_INL)
 def _lane_steps(U, D, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, T, dthr, NP):
-    """T time steps of every lane: the body of :func:`._rls._rls_stream` per lane.
+    """T time steps of every lane: the body of :func:`._rls._rls_body` per lane.
 
     X (Φ), Yc (y), Lc (1/λ), Wc (w), Rc (1/w) hold the samples k0 … k0+T−1
     lane-major; Ec, Sk and Thc receive ε, the skipped flags and θ.

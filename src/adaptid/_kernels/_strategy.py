@@ -11,9 +11,9 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, SKIPPED, _add, _bierman_apply, _bierman_prep, _finite_row, \
-    _forget, _form_P, _gain_step, _max_diag_P, _one_sample, _prior_errors, _segment_start, \
-    _store, _trace_P, _udu_factor, _views
+from ._bierman import _add, _bierman_apply, _bierman_prep, _finite_row, _forget, _form_P, \
+    _gain_step, _max_diag_P, _prior_errors, _segment_start, _store, _trace_P, _udu_factor, \
+    _views
 from ._dims import dim
 
 @njit(**NJIT_INLINE)
@@ -114,7 +114,6 @@ def _strategy_step(theta, U, D, phi, y, e, wk, lamk, mode, fp, pmax, f, v, b, Pm
     return lk
 
 
-
 @njit(**NJIT)
 def _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag):
     # Not inlined: compiled once and shared by the four entry points (the
@@ -159,19 +158,6 @@ def _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, 
         if store:
             _store(Th, k, theta, NP, p)
     return bad
-
-
-
-@njit(**NJIT)
-def strategy_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One step of :func:`strategy_run` (the same compiled code); λₖ → lk[0]."""
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, dim(ntag))
-    bad = _rls_strategy_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, opt, mat, ntag, ptag)
-    if skipped[0]:
-        return SKIPPED
-    if bad >= 0:
-        return NONPOSITIVE
-    return 0
 
 
 @njit(**NJIT)

@@ -25,7 +25,7 @@ from numba import prange
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _add, _bierman_apply, _d_below, \
     _gain_step, _one_sample, _prep_row, _prior_errors, _segment_start, _views
-from ._dims import dim, size_tag
+from ._dims import dim
 from ._rollstats import sub, window_direct_hook, window_end_hook, window_enter_hook, \
     window_remove_hook
 
@@ -80,16 +80,10 @@ def _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
 
 # The window's stream is written flat (no per-step array views, branches at
 # the top of the loop body): 1.5-2x faster than composing the helpers above.
-@njit(**NJIT_INLINE)
-def _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, NP, p, diffuse=False):
-    """:func:`_window_core` for callers that hold n and p as sizes (not tags)."""
-    return _window_core(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, size_tag(NP),
-                        size_tag(p), diffuse)
-
-
+# Compiled once per types and tags and called by the entry points, not inlined
+# into each (see _rls._rls_core); other kernels pass size_tag(n).
 @njit(**NJIT)
 def _window_core(S, Phi, Y, lam, w, Th, E, skipped, St, M, rtol, ntag, ptag, diffuse=False):
-    # Called, not inlined (compiled once per types and tags; see _rls._rls_core).
     NP = dim(ntag)
     p = dim(ptag)
     theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0 = _window_views(S, NP, p, M)
@@ -205,7 +199,7 @@ def window_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
     p = dim(ptag)
     M = int(opt[1])
     Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    reb = _window_stream_flat(S, Phi, Y, lam1, w1, Th, E, skipped, None, M, opt[2], NP, p)
+    reb = _window_core(S, Phi, Y, lam1, w1, Th, E, skipped, None, M, opt[2], ntag, ptag)
     if skipped[0]:
         return SKIPPED
     status = 0
@@ -219,28 +213,23 @@ def window_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
 @njit(**NJIT)
 def window_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N TLSM steps; returns the number of removals replaced by a re-solve."""
-    return _window_stream_flat(S, Phi, Y, lam, w, Th, E, skipped, St, int(opt[1]), opt[2],
-                               dim(ntag), dim(ptag))
+    return _window_core(S, Phi, Y, lam, w, Th, E, skipped, St, int(opt[1]), opt[2], ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
-    NP = dim(ntag)
-    p = dim(ptag)
     M = int(opt[1])
     for s in prange(Phi.shape[0]):
-        codes[s] = _window_stream_flat(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                       skipped[s], sub(St, s), M, opt[2], NP, p)
+        codes[s] = _window_core(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
+                                sub(St, s), M, opt[2], ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def window_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
                         codes, ntag, ptag):
     """G sliding-window streams back to back, each from S0 (see :func:`._rls.rls_run_segments`)."""
-    NP = dim(ntag)
-    p = dim(ptag)
     M = int(opt[1])
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _window_stream_flat(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z],
-                                       E[a:z], skipped[a:z], None, M, opt[2], NP, p)
+        codes[g] = _window_core(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                                skipped[a:z], None, M, opt[2], ntag, ptag)

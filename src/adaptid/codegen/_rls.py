@@ -3,8 +3,8 @@ ConstantTrace, Variable), SlidingWindowRLS and KalmanRLS.
 
 Each mirrors, operation for operation, the compiled stream of
 :mod:`adaptid._kernels` (``_bierman``, ``_rls``, ``_strategy``, ``_window``, ``_kalman``) that the Python estimator's ``run`` uses
-(``_rls_stream``, ``_strategy_step``, ``_window_stream_flat``,
-``_kalman_stream``), so that the C code continues the Python estimator's
+(``_rls_body``, ``_strategy_step``, ``_window_core``,
+``_kalman_core``), so that the C code continues the Python estimator's
 state with the same rounding (see docs/embedded.md on FMA contraction).
 Every function returns ``(blocks, update_source)``: the names of the shared
 blocks of :mod:`._emit` it needs and the text of ``NAME_update``.

@@ -70,14 +70,14 @@ def resolve_form(form, n, fast, diffuse=False):
 #: sweep, as gcc does for the C loop ``rls_fu_nN``, and the Potter sweep's work
 #: arrays are on the stack); larger n use the generic kernel. The U-D form follows
 #: ``adaptid._config.MAX_SPECIALISED_N``.
-COVARIANCE_SPECIALISED_N = 64
+FORMS_SPECIALISED_N = 64
 
 
 def ntag_for(form, n, tag):
     """The size tag of an RLS in ``form`` (the engine's ``tag`` unless specialised here)."""
     import os
     if form not in ("covariance", "sqrt") or not isinstance(tag, int) \
-            or n > COVARIANCE_SPECIALISED_N or os.environ.get("NUMBA_DISABLE_JIT") == "1":
+            or n > FORMS_SPECIALISED_N or os.environ.get("NUMBA_DISABLE_JIT") == "1":
         return tag
     return (0,) * n
 
