@@ -102,6 +102,21 @@ def test_demo_results_do_not_depend_on_the_helper(monkeypatch):
 
     from adaptid.cli._app import app
 
+    from adaptid import _config
+
+    started = []
+    start = _prewarm.start
+
+    def recording_start(*args, **kwargs):
+        proc = start(*args, **kwargs)
+        started.append(proc is not None)
+        return proc
+
+    # the suite's cache may already hold the window's kernels (or be off): start the
+    # helper anyway
+    monkeypatch.setattr(_config, "CACHE", True)
+    monkeypatch.setattr(_prewarm, "_cached", lambda kernel: False)
+    monkeypatch.setattr(_prewarm, "start", recording_start)
     outs = []
     for flag in ("0", "1"):
         monkeypatch.setenv("ADAPTID_PREWARM", flag)
@@ -110,4 +125,5 @@ def test_demo_results_do_not_depend_on_the_helper(monkeypatch):
         out = json.loads(res.output)
         out.pop("elapsed_s")                     # wall-clock time, the one field that differs
         outs.append(out)
+    assert started == [False, True]              # without, then with the helper
     assert outs[0] == outs[1]
