@@ -330,20 +330,16 @@ def cov_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
 def cov_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
                     ptag):
     """B independent streams in parallel; ``codes[b]`` as :func:`cov_run` returns."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _cov_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
-                               opt[0], NP, p)
+        codes[s] = cov_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
+                           None, opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def cov_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
                      codes, ntag, ptag):
     """G streams stored back to back, each from S0 (bit for bit :func:`cov_run`)."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _cov_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                               skipped[a:z], opt[0], NP, p)
+        codes[g] = cov_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                           skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)

@@ -230,22 +230,18 @@ def rls_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, p
 @njit(**NJIT_PARALLEL)
 def rls_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
                             ptag):
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _rls_diffuse_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                       skipped[s], Lk[s], sub(St, s), opt[0], opt[1], NP, p)
+        codes[s] = rls_diffuse_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
+                                   sub(St, s), opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def rls_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
                              codes, ntag, ptag):
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _rls_diffuse_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                                       skipped[a:z], Lk[a:z], None, opt[0], opt[1], NP, p)
+        codes[g] = rls_diffuse_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                                   skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
 
 
 # ------------------------------------------------------------------- window
@@ -364,21 +360,15 @@ def window_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag
 @njit(**NJIT_PARALLEL)
 def window_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
                                ptag):
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _window_diffuse_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                          skipped[s], Lk[s], sub(St, s), int(opt[1]), opt[2],
-                                          opt[3], NP, p)
+        codes[s] = window_diffuse_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
+                                      Lk[s], sub(St, s), opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def window_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt,
                                 mat, codes, ntag, ptag):
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _window_diffuse_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z],
-                                          E[a:z], skipped[a:z], Lk[a:z], None, int(opt[1]),
-                                          opt[2], opt[3], NP, p)
+        codes[g] = window_diffuse_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                                      skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)

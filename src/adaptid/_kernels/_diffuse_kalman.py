@@ -133,19 +133,15 @@ def kalman_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag
 @njit(**NJIT_PARALLEL)
 def kalman_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
                                ptag):
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _kalman_diffuse_stream(S[s], Phi[s], Y[s], w[s], Th[s], E[s], skipped[s],
-                                          Lk[s], opt, mat, NP, p)
+        codes[s] = kalman_diffuse_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
+                                      Lk[s], None, opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def kalman_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt,
                                 mat, codes, ntag, ptag):
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _kalman_diffuse_stream(S, Phi[a:z], Y[a:z], w[a:z], Th[a:z], E[a:z],
-                                          skipped[a:z], Lk[a:z], opt, mat, NP, p)
+        codes[g] = kalman_diffuse_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                                      skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)

@@ -141,11 +141,9 @@ def lms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
 @njit(**NJIT_PARALLEL)
 def lms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     """B independent LMS streams in parallel; ``codes[b]`` as :func:`lms_run` returns."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _lms_stream(S[s], Phi[s], Y[s], w[s], Th[s], E[s], skipped[s], opt, NP, p,
-                               False)
+        codes[s] = lms_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
+                           None, opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
@@ -153,12 +151,10 @@ def lms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, 
                      ntag, ptag):
     """G LMS streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0;
     parallel over segments, segment g bit for bit :func:`lms_run` from S0."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _lms_stream(S, Phi[a:z], Y[a:z], w[a:z], Th[a:z], E[a:z], skipped[a:z],
-                               opt, NP, p, False)
+        codes[g] = lms_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                           skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
 
 
 # ---------------------------------------------------------------- NLMS
@@ -171,20 +167,16 @@ def nlms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
 @njit(**NJIT_PARALLEL)
 def nlms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     """B independent NLMS streams in parallel."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _lms_stream(S[s], Phi[s], Y[s], w[s], Th[s], E[s], skipped[s], opt, NP, p,
-                               True)
+        codes[s] = nlms_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
+                            None, opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def nlms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat, codes,
                       ntag, ptag):
     """G NLMS streams stored back to back, each from S0 (see :func:`lms_run_segments`)."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _lms_stream(S, Phi[a:z], Y[a:z], w[a:z], Th[a:z], E[a:z], skipped[a:z],
-                               opt, NP, p, True)
+        codes[g] = nlms_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                            skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)

@@ -368,20 +368,16 @@ def potter_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
 def potter_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
                        ptag):
     """B independent streams in parallel; ``codes[b]`` as :func:`potter_run` returns."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for s in prange(Phi.shape[0]):
-        codes[s] = _potter_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
-                                  opt[0], NP, p)
+        codes[s] = potter_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
+                              None, opt, mat, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)
 def potter_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
                         codes, ntag, ptag):
     """G streams stored back to back, each from S0 (bit for bit :func:`potter_run`)."""
-    NP = dim(ntag)
-    p = dim(ptag)
     for g in prange(offsets.shape[0] - 1):
         a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _potter_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                                  skipped[a:z], opt[0], NP, p)
+        codes[g] = potter_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
+                              skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
