@@ -43,7 +43,7 @@ CASES = {"plain": (1.0, False), "forgetting": (0.995, False), "weights": (0.998,
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
-@pytest.mark.parametrize("n", [2, 5, 32, 40])
+@pytest.mark.parametrize("n", [2, 5, 24, 33])
 @pytest.mark.parametrize("form", FORMS)
 def test_every_form_equals_weighted_ridge_lstsq(rng, form, n, case):
     lam, weighted = CASES[case]
@@ -60,7 +60,7 @@ def test_every_form_equals_weighted_ridge_lstsq(rng, form, n, case):
     np.testing.assert_allclose(P @ info, np.eye(n), atol=1e-7)
 
 
-@pytest.mark.parametrize("n", [3, 20])
+@pytest.mark.parametrize("n", [5, 24])
 @pytest.mark.parametrize("form", FORMS)
 def test_update_equals_run_bitwise_with_weights_zero_weights_and_skips(rng, form, n):
     N = 200
@@ -84,7 +84,7 @@ def test_update_equals_run_bitwise_with_weights_zero_weights_and_skips(rng, form
     assert np.array_equal(a.get_state()["state"], c.get_state()["state"])
 
 
-@pytest.mark.parametrize("n", [2, 33])
+@pytest.mark.parametrize("n", [2])
 @pytest.mark.parametrize("form", FORMS)
 def test_batched_and_segments_equal_per_stream_runs(rng, form, n):
     B, N = 3, 120
@@ -116,7 +116,7 @@ def test_batched_and_segments_equal_per_stream_runs(rng, form, n):
 
 @pytest.mark.parametrize("form", FORMS)
 def test_state_and_state_file_round_trips_are_exact(rng, form, tmp_path):
-    n = 4
+    n = 5
     Phi, y = _data(rng, 300, n)
     est = adaptid.RLS(n, forgetting=0.99, P0=50.0, form=form)
     est.run(Phi[:200], y[:200])
@@ -145,7 +145,7 @@ def test_state_files_written_before_forms_load_as_ud():
 
 
 def test_old_state_dict_without_form_at_large_n_is_read_as_ud(rng):
-    n = 20
+    n = 24
     Phi, y = _data(rng, 100, n)
     est = adaptid.RLS(n, P0=10.0, form="ud")
     est.run(Phi, y)
@@ -156,7 +156,7 @@ def test_old_state_dict_without_form_at_large_n_is_read_as_ud(rng):
     np.testing.assert_array_equal(back.P, est.P)
 
 
-@pytest.mark.parametrize("n", [3, 24])
+@pytest.mark.parametrize("n", [5, 24])
 @pytest.mark.parametrize("form", ("sqrt", "covariance"))
 def test_conversion_from_ud_and_back_is_exact_up_to_rounding(rng, form, n):
     Phi, y = _data(rng, 400, n)
@@ -275,7 +275,7 @@ def _cols_of(block, n):
 
 
 @pytest.mark.parametrize("seed", range(4))
-@pytest.mark.parametrize("n", [2, 9, 24])
+@pytest.mark.parametrize("n", [2, 24, 33])
 def test_sqrt_monitor_code_is_the_exact_rule_sample_by_sample(n, seed):
     # The square-root kernel screens diag(P) with O(1) bounds and evaluates the rule
     # (diag(S Sᵀ) in (0, windup_threshold)) only when they cannot decide: the sample it
@@ -322,7 +322,7 @@ def test_auto_switch_rule_when_a_threshold_is_set(monkeypatch):
 def test_auto_square_root_estimator_runs_stats_in_ud_form(rng):
     """form="auto" above the switch runs in the square-root form; run(stats=True)
     continues in U-D form and gives what an explicit U-D estimator gives."""
-    n, N = 20, 300
+    n, N = 24, 300
     Phi = rng.standard_normal((N, n))
     y = Phi @ np.ones(n) + rng.standard_normal(N)
     auto = adaptid.RLS(n, forgetting=0.99)

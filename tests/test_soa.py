@@ -16,7 +16,7 @@ import pytest
 
 import adaptid
 from adaptid import _kernels
-from adaptid._kernels import _rls, _soa
+from adaptid._kernels import _soa
 from adaptid.forgetting import Directional
 
 pytestmark = pytest.mark.skipif(
@@ -41,6 +41,19 @@ def _same(a, b):
     return np.array_equal(a, b, equal_nan=True)
 
 
+def _routed(est, kernel):
+    """A copy of ``est`` whose batched and segmented runs always take ``kernel``.
+
+    ``kernel`` is a lane kernel (also with θ stored, which the engine itself
+    leaves to the scalar kernels) or None (the scalar kernels always). The
+    engine still prepares the arguments, so the kernel is called with the
+    same argument types as in ordinary use and is compiled once per n.
+    """
+    routed = est.copy()
+    routed._soa_entry = lambda *args, **kwargs: kernel
+    return routed
+
+
 @pytest.mark.parametrize("n", [1, 3, 8])
 def test_batched_equals_run_per_stream(n):
     rng = np.random.default_rng(n)
@@ -54,17 +67,18 @@ def test_batched_equals_run_per_stream(n):
         warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
         bat = est.copy()
         tb = bat.run_batched(Phi, y, weights=w, forgetting=lam, store=False)
-        # the lane kernel with θ stored, called directly
-        args = _kernel_args(est, Phi, y, w, lam)
-        _soa.rls_soa_batched(*args)
+        # the lane kernel with θ stored
+        stored = _routed(est, _soa.rls_soa_batched)
+        ts = stored.run_batched(Phi, y, weights=w, forgetting=lam, store=True)
         for s in range(B):
             one = est.copy()
             tr = one.run(Phi[s], y[s], weights=w[s], forgetting=lam[s])
-            assert _same(args[5][s, :, :, 0], tr.theta), s
+            assert _same(ts.theta[s], tr.theta), s
             assert _same(tb.error[s], tr.error), s
             assert np.array_equal(tb.skipped[s], tr.skipped), s
             assert _same(bat.theta[s], one.theta), s
             assert _same(bat.P[s], one.P), s
+            assert _same(stored.theta[s], one.theta), s
     assert tb.skipped.any() and (w == 0).any()  # the cases were exercised
 
 
@@ -86,14 +100,6 @@ def test_batched_constant_weights_and_forgetting_and_continuation():
         assert _same(bat.theta[s], one.theta) and _same(bat.P[s], one.P)
 
 
-def _kernel_args(est, Phi, y, w, lam):
-    B, N, n = Phi.shape
-    S = np.repeat(est.get_state()["state"][None, :], B, axis=0)
-    return (S, Phi, y[..., None], lam, w, np.empty((B, N, n, 1)), np.empty((B, N, 1)),
-            np.zeros((B, N), dtype=np.bool_), np.empty((B, 0)), est._opt, est._mat,
-            np.empty(B, dtype=np.int64), est._ntag, est._ptag)
-
-
 def test_windup_codes_equal():
     # λ = 0.5 with a small threshold: pivots pass it at different samples per stream
     rng = np.random.default_rng(3)
@@ -102,18 +108,27 @@ def test_windup_codes_equal():
     Phi[:, :, 2] *= rng.random((B, 1)) < 0.5  # half the streams never excite direction 2
     lam = np.full((B, N), 0.5)
     est = adaptid.RLS(n, P0=1.0, windup_threshold=1e3, nan_policy="skip")
-    a = _kernel_args(est, Phi, y, w, lam)
-    b = _kernel_args(est, Phi, y, w, lam)
-    _rls.rls_run_batched(*a[:9], None, *a[9:])  # St: no statistics
-    _soa.rls_soa_batched(*b)
-    for x, z in zip(a, b):
+    runs, codes, caught = [], [], []
+    for kernel in (None, _soa.rls_soa_batched):  # the scalar kernel, then the lanes
+        routed = _routed(est, kernel)
+        report = routed._report_codes  # record the kernel's per-stream codes on the way
+
+        def record(c, where, report=report):
+            codes.append(np.array(c))
+            return report(c, where)
+
+        routed._report_codes = record
+        with pytest.warns(adaptid.CovarianceWindupWarning) as got:
+            tr = routed.run_batched(Phi, y, weights=w, forgetting=lam, store=False)
+        runs.append((tr.error, tr.skipped, routed.theta, routed.P))
+        caught.append([str(x.message) for x in got])
+    for x, z in zip(*runs):
         assert _same(x, z)
-    codes = a[11]
-    assert (codes >= 0).any() and (codes >= 0).sum() < B  # some streams wound up, some not
-    with pytest.warns(adaptid.CovarianceWindupWarning) as soa_w:
-        est.copy().run_batched(Phi, y, weights=w, forgetting=lam, store=False)
-    first = int(np.argmax(codes >= 0))
-    assert f"{int(codes[first])} of stream {first}" in str(soa_w[0].message)
+    assert np.array_equal(codes[0], codes[1]) and caught[0] == caught[1]
+    wound = codes[1] >= 0
+    assert wound.any() and wound.sum() < B  # some streams wound up, some not
+    first = int(np.argmax(wound))
+    assert f"{int(codes[1][first])} of stream {first}" in caught[1][0]
 
 
 def _offsets(rng, G):
@@ -134,12 +149,12 @@ def test_segments_equal_run_per_segment(n, store):
     Phi, y, w = Phi[0], y[0], w[0]
     est = adaptid.RLS(n, forgetting=0.95, P0=1e3, nan_policy="skip")
     assert est._soa_entry("segments", G) is _soa.rls_soa_segments
+    assert est._soa_entry("segments", G, store=True) is None  # θ per sample: the old kernel
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
-        if store:  # the engine stores θ with the old kernel: call the lane kernel directly
-            res = _segment_kernel_result(est, _soa.rls_soa_segments, Phi, y, off, w)
-        else:
-            res = est.run_segments(Phi, y, off, weights=w)
+        # with θ stored the engine itself takes the old kernel: route it to the lanes
+        routed = _routed(est, _soa.rls_soa_segments) if store else est
+        res = routed.run_segments(Phi, y, off, weights=w, store=store)
         for g in range(G):
             a, z = off[g], off[g + 1]
             one = est.copy().reset()
@@ -147,57 +162,38 @@ def test_segments_equal_run_per_segment(n, store):
             assert _same(res.theta[g], one.theta), g
             assert _same(res.error[a:z], tr.error), g
             assert np.array_equal(res.skipped[a:z], tr.skipped), g
+            assert _same(res.P[g], one.P), g
+            assert res.n_skipped[g] == one.n_skipped
             if store:
                 assert _same(res.theta_track[a:z], tr.theta), g
-            else:
-                assert _same(res.P[g], one.P), g
-                assert res.n_skipped[g] == one.n_skipped
-
-
-def _segment_kernel_result(est, kern, Phi, y, off, w):
-    """A segmented run through ``kern`` with θ stored (fields as SegmentResult's)."""
-    from types import SimpleNamespace
-    G, N, n = off.size - 1, Phi.shape[0], Phi.shape[1]
-    S0 = est.get_state()["state"]
-    Sout, Th, E = np.empty((G, S0.size)), np.empty((N, n, 1)), np.empty((N, 1))
-    sk = np.zeros(N, dtype=np.bool_)
-    kern(S0, Sout, Phi, y[:, None], off, np.full(N, est.forgetting), w, Th, E, sk,
-         np.empty(0), est._opt, est._mat, np.empty(G, dtype=np.int64), est._ntag, est._ptag)
-    return SimpleNamespace(theta=Sout[:, :n], error=E[:, 0], skipped=sk, theta_track=Th[..., 0])
 
 
 def test_segments_status_equal():
     rng = np.random.default_rng(5)
     G = 2 * _soa.LANES + 1
     off = _offsets(rng, G)
-    Phi, y, w, _ = _data(rng, 1, int(off[-1]), 2)
-    Phi = Phi[0]
+    n = 5
+    Phi, y, w, _ = _data(rng, 1, int(off[-1]), n)
+    Phi, y, w = Phi[0], y[0], w[0]
     Phi[:, 1] *= np.repeat(rng.random(G) < 0.5, np.diff(off))
-    est = adaptid.RLS(2, forgetting=0.5, P0=1.0, windup_threshold=1e3, nan_policy="skip")
-    S0 = est.get_state()["state"]
+    est = adaptid.RLS(n, forgetting=0.5, P0=1.0, windup_threshold=1e3, nan_policy="skip")
     out = []
-    for kern in (_rls.rls_run_segments, _soa.rls_soa_segments):
-        N = Phi.shape[0]
-        args = (S0, np.empty((G, S0.size)), Phi, y[0][:, None], off, np.full(N, 0.5),
-                w[0], np.empty((0, 2, 1)), np.empty((N, 1)), np.zeros(N, dtype=np.bool_),
-                np.empty(0), est._opt, est._mat, np.empty(G, dtype=np.int64), est._ntag,
-                est._ptag)
-        if kern is _rls.rls_run_segments:
-            kern(*args[:11], None, *args[11:])  # St: no statistics
-        else:
-            kern(*args)
-        out.append(args)
-    for x, z in zip(*out):
-        assert _same(x, z)
-    status = out[0][13]
+    for kernel in (None, _soa.rls_soa_segments):  # the scalar kernel, then the lanes
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
+            res = _routed(est, kernel).run_segments(Phi, y, off, weights=w)
+        out.append(res)
+    for field in ("theta", "P", "n_samples", "n_skipped", "sse", "error", "skipped", "status"):
+        assert _same(getattr(out[0], field), getattr(out[1], field)), field
+    status = out[1].status
     assert (status >= 0).any() and (status < 0).any()
 
 
 def test_segments_all_empty_and_none():
-    est = adaptid.RLS(3, forgetting=0.99)
-    res = est.run_segments(np.empty((0, 3)), np.empty(0), np.zeros(_soa.MIN_STREAMS + 1,
+    est = adaptid.RLS(5, forgetting=0.99)
+    res = est.run_segments(np.empty((0, 5)), np.empty(0), np.zeros(_soa.MIN_STREAMS + 1,
                                                                      dtype=int))
-    assert np.array_equal(res.theta, np.zeros((_soa.MIN_STREAMS, 3)))
+    assert np.array_equal(res.theta, np.zeros((_soa.MIN_STREAMS, 5)))
     assert np.array_equal(res.status, np.full(_soa.MIN_STREAMS, -1))
 
 
