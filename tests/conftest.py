@@ -20,18 +20,18 @@ SOAK = os.environ.get("ADAPTID_SOAK") == "1"
 
 # The cold suite is compile-bound: numba compiles each kernel once per model
 # size n for which it is specialised (n <= 16, the Python default). The files
-# below test the specialisation itself (the core recursions, the state files
-# of the default path, the kernels' stack scratch and literal sizes, the SIMD
-# streams, the forms, the generated C, the benchmarks, the kernel cache) and
-# run on those specialised kernels; every other file (fuzzing, diffuse
-# starts, statistics, segments, strategies, models, diagnostics, CLI, fleet,
-# scikit-learn, ...) runs on the size-generic kernels, one compilation for
-# every n. Both give bit for bit the same results: tests/test_kernels_scratch.py
+# below test the specialisation itself (the core recursions, the kernels'
+# stack scratch and literal sizes, the SIMD streams, the forms (whose state
+# round trips run there), the generated C, the benchmarks, the kernel cache)
+# and run on those specialised kernels; every other file (state files,
+# fuzzing, diffuse starts, statistics, segments, strategies, models,
+# diagnostics, CLI, fleet, scikit-learn, ...) runs on the size-generic
+# kernels, one compilation for every n. Both give bit for bit the same results: tests/test_kernels_scratch.py
 # checks it for every algorithm, form, diffuse start and the statistics;
 # tests/test_fit_stats_agree.py between the shell and Python.
 # ADAPTID_MAX_SPECIALISED_N in the environment applies to every file.
 SPECIALISED_FILES = {
-    "test_recursive", "test_state_files", "test_kernels_scratch", "test_codegen",
+    "test_recursive", "test_kernels_scratch", "test_codegen",
     "test_benchmarks_smoke", "test_kernel_cache", "test_environment", "test_rls_forms",
     "test_soa",
 }

@@ -16,6 +16,7 @@ import os
 import pickle
 import shutil
 import stat
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -202,12 +203,22 @@ DAMAGES = {
 }
 
 
+@pytest.fixture(scope="module")
+def filled_cache(tmp_path_factory):
+    """A cache folder filled by one RUN_RLS, and that run's output (copied per test)."""
+    root = tmp_path_factory.mktemp("filled")
+    cache = _private(root / "cache")
+    out, _ = _run(RUN_RLS, _env(root, NUMBA_CACHE_DIR=cache), root)
+    return cache, out
+
+
 @pytest.mark.parametrize("damage", sorted(DAMAGES))
-def test_damaged_cache_recompiles(tmp_path, damage):
-    cache = _private(tmp_path / "cache")
+def test_damaged_cache_recompiles(tmp_path, damage, filled_cache):
+    template, first = filled_cache
+    cache = tmp_path / "cache"
+    shutil.copytree(template, cache)
     env = _env(tmp_path, NUMBA_CACHE_DIR=cache)
-    first, _ = _run(RUN_RLS, env, tmp_path)
-    folder = Path(first["CACHE"].split(" ", 1)[1])
+    folder = cache / Path(first["CACHE"].split(" ", 1)[1]).relative_to(template)
     assert any(folder.glob("*.nbc"))
     DAMAGES[damage](folder)
     second, _ = _run(RUN_RLS, env, tmp_path)           # recompiles, same result
