@@ -16,7 +16,6 @@ import os
 import pickle
 import shutil
 import stat
-import shutil
 import subprocess
 import sys
 import textwrap
@@ -94,21 +93,30 @@ def test_private_cache_dir_is_used(tmp_path):
     assert any(folder.glob("_rls.rls_run-*.nbi"))   # numba wrote its index there
 
 
-@pytest.mark.parametrize("how", ["group-writable", "world-writable parent",
-                                 "other owner"])
-def test_cache_folder_others_can_write_is_not_used(tmp_path, how):
-    """A planted index (a pickle that creates a folder when loaded) is never unpickled.
-
-    Control: the same plant in a private folder is unpickled (numba loads indexes)."""
+def _planted_root(tmp_path):
+    """A cache root whose adaptid folder holds planted indexes; the plant's marker."""
     root = _private(tmp_path / "shared")
     sub = root / _config._subpath(str(Path(_config.__file__).parent / "_kernels"))
     marker = tmp_path / "PLANT_RAN"
     _plant(sub, marker)
-    # control: private folders, the plant runs (and adaptid survives it: a miss)
+    return root, sub, marker
+
+
+def test_planted_index_in_a_private_folder_is_unpickled(tmp_path):
+    """Control for the test below: in private folders numba loads the planted
+    index (the plant runs, and adaptid survives it: a cache miss)."""
+    root, _, marker = _planted_root(tmp_path)
     out, _ = _run(RUN_RLS, _env(tmp_path, NUMBA_CACHE_DIR=root), tmp_path)
     assert marker.exists() and out["CACHE"].startswith("True")
-    marker.rmdir()
-    _plant(sub, marker)
+
+
+@pytest.mark.parametrize("how", ["group-writable", "world-writable parent",
+                                 "other owner"])
+def test_cache_folder_others_can_write_is_not_used(tmp_path, how):
+    """A planted index (a pickle that creates a folder when loaded) is never
+    unpickled from a folder others can write (the control above shows the same
+    plant runs from a private folder)."""
+    root, sub, marker = _planted_root(tmp_path)
     if how == "group-writable":
         os.chmod(sub, 0o770)
     elif how == "world-writable parent":

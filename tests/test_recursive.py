@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings, strategies as st, HealthCheck
 
 import adaptid
+from adaptid.estimators import size_generic_kernels
 from naive import kalman_random_walk, rls_cost_minimiser
 
 
@@ -78,7 +79,10 @@ def test_rls_property_cost(n, N, lam, logP0, seed, p):
     Phi, y, _ = make_data(rng, N, n, p=p)
     theta0 = rng.standard_normal(n if p is None else (n, p))
     P0 = 10.0 ** logP0
-    est = adaptid.RLS(n, forgetting=lam, theta0=theta0, P0=P0, n_outputs=p)
+    # the size-generic kernel: one compilation for the six sizes drawn (the
+    # specialised kernels equal it bit for bit: tests/test_kernels_scratch.py)
+    with size_generic_kernels():
+        est = adaptid.RLS(n, forgetting=lam, theta0=theta0, P0=P0, n_outputs=p)
     w = rng.uniform(0.1, 2.0, N)
     est.run(Phi, y, weights=w)
     ref = rls_cost_minimiser(Phi, y, np.full(N, lam), w, theta0, P0 * np.eye(n))
@@ -249,6 +253,39 @@ def test_run_equals_updates_bit_for_bit(rng, make):
     assert np.array_equal(a.theta, b.theta)
     assert np.array_equal(a.P, b.P)
     assert a.n_updates == b.n_updates == 300
+
+
+@pytest.mark.parametrize("make", [
+    lambda: adaptid.RLS(3, forgetting=0.97, P0=100.0),
+    lambda: adaptid.SlidingWindowRLS(3, 20, forgetting=0.99, P0=100.0),
+    lambda: adaptid.SlidingWindowRLS(3, 20, P0="diffuse"),
+], ids=["rls", "window", "window-diffuse"])
+def test_updates_and_short_runs_compile_nothing_after_a_run(rng, make):
+    """One compiled signature serves run, update and runs of 0 or 1 sample, with
+    scalar or per-sample weights and forgetting (numpy flags every array of at
+    most one element contiguous: the engine keeps λ and w non-contiguous)."""
+    Phi, y, _ = make_data(rng, 40, 3)
+    est = make()
+    est.run(Phi[:30], y[:30])
+    kernel = est._kern.run
+    before = list(kernel.signatures)
+    est.update(Phi[30], y[30])
+    est.update(Phi[31], y[31], weight=0.5)
+    est.run(Phi[32:33], y[32:33])
+    est.run(Phi[33:34], y[33:34], weights=[0.7])
+    est.run(Phi[34:34], y[34:34])
+    est.run(Phi[34:37], y[34:37], weights=np.array([1.0, 0.5, 2.0]))
+    if isinstance(est, adaptid.RLS):
+        est.run(Phi[37:38], y[37:38], forgetting=np.array([0.9]))
+    assert kernel.signatures == before
+    # and the short runs are the updates: a second estimator fed sample by sample
+    ref = make()
+    ref.run(Phi[:30], y[:30])
+    for k, w in zip(range(30, 37), [1.0, 0.5, 1.0, 0.7, 1.0, 0.5, 2.0]):
+        ref.update(Phi[k], y[k], weight=w)
+    if isinstance(est, adaptid.RLS):
+        ref.update(Phi[37], y[37], forgetting=0.9)
+    assert np.array_equal(ref.theta, est.theta)
 
 
 @pytest.mark.parametrize("make", [

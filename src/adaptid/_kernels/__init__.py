@@ -3,17 +3,18 @@
 * :mod:`._bierman` — the U-D (Bierman) building blocks shared by all streams;
 * :mod:`._rls`, :mod:`._strategy`, :mod:`._kalman`, :mod:`._window`,
   :mod:`._lms` — one
-  module per recursive algorithm, each with the four entry points of one
-  common signature (``update``, ``run``, ``run_batched``, ``run_segments``);
+  module per recursive algorithm, each with the three entry points of one
+  common signature (``run``, ``run_batched``, ``run_segments``; ``update`` is
+  a run of length 1);
 * :mod:`._diffuse`, :mod:`._diffuse_kalman` — the exact diffuse start
   (``P0="diffuse"``) of RLS, the window and the Kalman filter, a prologue
-  before the ordinary streams, with the same four entry points;
+  before the ordinary streams, with the same three entry points;
 * :mod:`._rollstats` — the windowed statistics of ``run(..., stats=True)``,
   inlined into the RLS and window streams (output ``St`` of the common
   signature: an array of N + 1 rows when asked for, None when not, chosen at
   compile time);
 * :mod:`._potter`, :mod:`._covariance` — RLS in square-root and covariance form
-  (``RLS(form=...)``), same four entry points;
+  (``RLS(form=...)``), same three entry points;
 * :mod:`._dims` — the tags that make n and p compile-time constants
   (specialisation per n without generating source), :mod:`._scratch` —
   stack-allocated work arrays.
@@ -40,13 +41,12 @@ _install_inline()  # numba's inliner copies an inlined IR once, not once per blo
 class Entries(NamedTuple):
     """The compiled entry points of one algorithm (one signature for all).
 
-    ``update`` is None except where ``run``'s code cannot serve a single step
-    (the sliding window, whose run reports re-solves rather than the first bad
-    sample): elsewhere one update is a run of length 1 through ``run``
-    (:meth:`adaptid.estimators._engine.RecursiveEstimator.update`).
+    There is no single-step entry: one update is a run of length 1 through
+    ``run``, with arguments of the types ``run`` is given
+    (:meth:`adaptid.estimators._engine.RecursiveEstimator.update`), so a step
+    compiles nothing more and is bit for bit a step of ``run``.
     """
 
-    update: object
     run: object
     run_batched: object
     run_segments: object
@@ -55,8 +55,7 @@ class Entries(NamedTuple):
 def _entries(module, prefix):
     import importlib
     mod = importlib.import_module(f"adaptid._kernels.{module}")
-    return Entries(getattr(mod, f"{prefix}_update", None),
-                   *(getattr(mod, f"{prefix}_{what}")
+    return Entries(*(getattr(mod, f"{prefix}_{what}")
                      for what in ("run", "run_batched", "run_segments")))
 
 

@@ -34,11 +34,6 @@ import numpy as np
 
 from .._config import NJIT, NJIT_INLINE, njit
 
-# Status bits returned by the single-step kernels.
-SKIPPED = 1
-REBUILT = 2
-NONPOSITIVE = 4
-
 # --------------------------------------------------------------------------
 # building blocks
 # --------------------------------------------------------------------------
@@ -194,14 +189,6 @@ def _store(Th, k, theta, NP, p):
     for i in range(NP):
         for j in range(p):
             Th[k, i, j] = theta[i, j]
-
-
-@njit(**NJIT_INLINE)
-def _one_sample(phi, y, e, lam, w, NP):
-    """One sample as the arrays of a length-1 run (update = run, bit for bit)."""
-    p = y.shape[0]
-    return (phi.reshape((1, NP)), y.reshape((1, p)), e.reshape((1, p)), np.full(1, lam),
-            np.full(1, w), np.empty((0, NP, p)), np.zeros(1, dtype=np.bool_))
 
 
 @njit(**NJIT_INLINE)

@@ -42,8 +42,8 @@ eigen-decomposition (LAPACK inside the kernel, no better here).
 
 Return code: the first sample after which a diagonal entry of P passed the
 windup threshold ``opt[0]`` or was not finite (≥ 0); else ``−2 − k`` if P was
-repaired, k the first repaired sample; else −1. ``update`` returns the bits
-NONPOSITIVE (windup) and REBUILT (repaired).
+repaired, k the first repaired sample; else −1 (``update`` is a run of length 1
+and reads the same code).
 """
 
 import numpy as np

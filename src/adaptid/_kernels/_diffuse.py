@@ -58,8 +58,7 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import SKIPPED, _finite_row, _one_sample, _prior_errors, _segment_start, \
-    _store, _views
+from ._bierman import _finite_row, _prior_errors, _segment_start, _store, _views
 from ._dims import dim, size_tag
 from ._rls import _rls_core
 from ._rollstats import rows_from, srif_hook, sub, window_direct_hook, window_end_hook
@@ -336,18 +335,6 @@ def _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, M, rtol, r
         k = j + 1
     D0[:] = d0
     return rebuilds
-
-
-@njit(**NJIT)
-def window_diffuse_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One step of the diffuse window through the same code as :func:`window_diffuse_run`."""
-    NP = dim(ntag)
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    reb = _window_diffuse_stream(S, Phi, Y, lam1, w1, Th, E, skipped, lk, None, int(opt[1]),
-                                 opt[2], opt[3], NP, dim(ptag))
-    if skipped[0]:
-        return SKIPPED
-    return 2 if reb else 0
 
 
 @njit(**NJIT)

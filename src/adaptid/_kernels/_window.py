@@ -23,8 +23,8 @@ import numpy as np
 from numba import prange
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
-from ._bierman import NONPOSITIVE, REBUILT, SKIPPED, _add, _bierman_apply, _d_below, \
-    _gain_step, _one_sample, _prep_row, _prior_errors, _segment_start, _views
+from ._bierman import _add, _bierman_apply, _gain_step, _prep_row, _prior_errors, \
+    _segment_start, _views
 from ._dims import dim
 from ._rollstats import sub, window_direct_hook, window_end_hook, window_enter_hook, \
     window_remove_hook
@@ -190,24 +190,6 @@ def _rebuild_noinline(S, M, NP, p):
     b = np.empty(NP)
     _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0, e, f, v, b, NP, p, M)
 
-
-
-@njit(**NJIT)
-def window_update(S, phi, y, e, lam, w, lk, opt, mat, ntag, ptag):
-    """One TLSM step through the same compiled code as :func:`window_run`."""
-    NP = dim(ntag)
-    p = dim(ptag)
-    M = int(opt[1])
-    Phi, Y, E, lam1, w1, Th, skipped = _one_sample(phi, y, e, lam, w, NP)
-    reb = _window_core(S, Phi, Y, lam1, w1, Th, E, skipped, None, M, opt[2], ntag, ptag)
-    if skipped[0]:
-        return SKIPPED
-    status = 0
-    if reb:
-        status |= REBUILT
-    if not _d_below(S[NP * p + NP * NP:NP * p + NP * NP + NP], opt[0], NP):
-        status |= NONPOSITIVE
-    return status
 
 
 @njit(**NJIT)

@@ -111,13 +111,22 @@ class _StepArrays:
 
 
 def _strided(arr):
-    """``arr`` (read-only, float64, shape (..., N)) with a non-contiguous layout for
-    N >= 2: a contiguous one is copied into every other element of a new buffer."""
-    if arr.shape[-1] < 2 or not (arr.flags.c_contiguous or arr.flags.f_contiguous):
+    """``arr`` (read-only, float64, shape (..., N)) with a non-contiguous layout
+    (numba's 'A', the type of a broadcast scalar), so that λ and w compile one
+    signature whether they are scalars or per-sample arrays, and whatever N.
+
+    A contiguous array is copied into every other element of a new buffer. numpy
+    flags every array of at most one element contiguous (a broadcast scalar
+    too), so for N < 2 the copy has two samples along its last axis, the second
+    a repeat of the first (or 1.0 for N = 0): the kernels read the first N."""
+    if not (arr.flags.c_contiguous or arr.flags.f_contiguous):
         return arr
-    buf = np.empty(arr.shape + (2,))
-    out = buf[..., 0]
-    out[...] = arr
+    N = arr.shape[-1]
+    out = np.empty(arr.shape[:-1] + (max(N, 2), 2))[..., 0]
+    if N >= 2:
+        out[...] = arr
+    else:
+        out[...] = arr if N == 1 else 1.0
     out.flags.writeable = False
     return out
 
@@ -190,9 +199,7 @@ class RecursiveEstimator:
             windup_threshold = 1e6 * scale if scale > 0 else np.inf
         self._windup_threshold = check_scalar(windup_threshold, "windup_threshold", low=0.0,
                                               low_open=True, finite=False)
-        self._e = np.empty(self.n_outputs)
         self._ybuf = np.empty(1)
-        self._lk = np.empty(1)
         self._step = _StepArrays(n, self.n_outputs, self._reports_forgetting or self._diffuse)
         self._ntag, self._ptag = _kernels.tags(n, self.n_outputs)
         self._sync_options()
@@ -253,7 +260,7 @@ class RecursiveEstimator:
 
     def _lam_run(self, forgetting, shape_N):
         self._lam_step(forgetting)
-        return np.broadcast_to(np.float64(1.0), shape_N)
+        return _strided(np.broadcast_to(np.float64(1.0), shape_N))
 
     def _sync_options(self):
         self._update_ep = None
@@ -440,7 +447,7 @@ class RecursiveEstimator:
             value = default
         if np.ndim(value) == 0:
             v = check_scalar(value, name, low=low, high=high, low_open=low_open)
-            return np.broadcast_to(np.float64(v), shape_N)
+            return _strided(np.broadcast_to(np.float64(v), shape_N))
         arr = as_float_array(value, name)
         try:
             arr = np.broadcast_to(arr, shape_N)
@@ -583,8 +590,6 @@ class RecursiveEstimator:
             self._check_single("update")
         w = 1.0 if type(weight) is float and weight == 1.0 else self._weight(weight)
         lam = self._lam_fixed if forgetting is None else self._lam_step(forgetting)
-        if self._code_is_rebuilds:
-            return self._update_window(phi, y, lam, w)
         a = self._step
         if type(phi) is np.ndarray and phi.shape == a.nshape and phi.dtype.char == "d":
             a.phi[0] = phi
@@ -602,6 +607,7 @@ class RecursiveEstimator:
         if args[0] is not self._S or args[10] is not self._opt or args[11] is not self._mat:
             args = a.args = (self._S, a.Phi, a.Y, a.lam, a.w, a.Th, a.E, a.skipped, a.Lk, None,
                              self._opt, self._mat, self._ntag, self._ptag)
+            a.D = self._ud_views(self._S)[1] if self._code_is_rebuilds else None
         # One step is a run of length 1 through the compiled ``run`` numba already has for
         # these argument types (those run() passes): nothing more to compile, and bit for
         # bit the arithmetic of run().
@@ -610,46 +616,25 @@ class RecursiveEstimator:
         else:
             code = self._kern.run(*args)
             self._update_ep = _entry_point(self._kern.run, args)
-        if a.reports:
-            self._lk[0] = a.Lk[0]
         e = a.E[0, 0]
         if e != e and a.skipped[0]:  # a skipped sample (its error is NaN)
             a.skipped[0] = False
             self._nonfinite_step(a.phi[0], a.y[0])
-            if code >= 0:
+            if code >= 0 and not self._code_is_rebuilds:
                 self._warn_nonpositive(self.n_updates)
             return float("nan") if self._single else a.E[0].copy()
         self.n_updates += 1
-        if code >= 0:
+        if self._code_is_rebuilds:  # the window: code counts re-solves; D is checked here
+            if code:
+                self._warn_rebuild(1)
+            thr = self._windup_threshold  # pivots in (0, thr), NaN not (as in run)
+            if not all(0.0 < d < thr for d in a.D.tolist()):
+                self._warn_nonpositive(self.n_updates)
+        elif code >= 0:
             self._warn_nonpositive(self.n_updates)
         elif code <= -2:  # a repaired covariance (RLS form="covariance")
             self._warn_rebuild(1)
         return float(e) if self._single else a.E[0].copy()
-
-    def _update_window(self, phi, y, lam, w):
-        """update through the algorithm's own single-step kernel (the window's, whose
-        run reports re-solves rather than the first bad sample)."""
-        phi = self._phi(phi)
-        yv = self._y(y)
-        args = (self._S, phi, yv, self._e, lam, w, self._lk, self._opt, self._mat,
-                self._ntag, self._ptag)
-        if self._update_ep is not None and phi.flags.writeable and yv is self._ybuf:
-            st = self._update_ep(*args)
-        else:
-            st = self._kern.update(*args)
-            if self._single and phi.flags.writeable and yv is self._ybuf:
-                self._update_ep = _entry_point(self._kern.update, args)
-        if st & 1:
-            self._nonfinite_step(phi, yv)
-            if st & 4:
-                self._warn_nonpositive(self.n_updates)
-            return float("nan") if self._single else self._e.copy()
-        self.n_updates += 1
-        if st & 2:
-            self._warn_rebuild(1)
-        if st & 4:
-            self._warn_nonpositive(self.n_updates)
-        return float(self._e[0]) if self._single else self._e.copy()
 
     def run(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
             has_constant=None):
