@@ -372,9 +372,9 @@ def test_long_run_ten_million_updates_stay_exact(rng, form):
 # --------------------------------------------------------------------------
 @pytest.mark.parametrize("form", FORMS)
 def test_nan_skip_equals_removed_samples_rls(rng, form):
-    N, n = 4000, 3
+    N, n = 4000, 4  # n of _long_run: one compilation per form for both
     Phi = rng.standard_normal((N, n))
-    y = Phi @ [1.0, 2.0, -1.0] + 0.1 * rng.standard_normal(N)
+    y = Phi @ [1.0, 2.0, -1.0, 0.5] + 0.1 * rng.standard_normal(N)
     miss = rng.random(N) < 0.05
     Phi_nan, y_nan = Phi.copy(), y.copy()
     half = miss & (rng.random(N) < 0.5)

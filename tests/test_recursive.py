@@ -258,8 +258,8 @@ def test_run_equals_updates_bit_for_bit(rng, make):
 @pytest.mark.parametrize("make", [
     lambda: adaptid.RLS(3, forgetting=0.97, P0=100.0),
     lambda: adaptid.SlidingWindowRLS(3, 20, forgetting=0.99, P0=100.0),
-    lambda: adaptid.SlidingWindowRLS(3, 20, P0="diffuse"),
-], ids=["rls", "window", "window-diffuse"])
+    lambda: adaptid.KalmanRLS(3, process_cov=1e-3, noise_var=0.5),
+], ids=["rls", "window", "kalman"])
 def test_updates_and_short_runs_compile_nothing_after_a_run(rng, make):
     """One compiled signature serves run, update and runs of 0 or 1 sample, with
     scalar or per-sample weights and forgetting (numpy flags every array of at

@@ -333,7 +333,8 @@ def _window_diffuse_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, M, rtol, r
         if store:
             _store(Th, j, theta, NP, p)
         k = j + 1
-    D0[:] = d0
+    for i in range(NP):  # (a loop: an array assignment compiles numba's shape-error message)
+        D0[i] = d0[i]
     return rebuilds
 
 
