@@ -53,25 +53,7 @@ def rng():
     return np.random.default_rng(20261121)
 
 
-# The longest files (cold caches, seconds of one worker, measured with
-# `--durations=0`) go first: pytest-xdist's `--dist loadfile` hands files to
-# the workers in this order, and a long file handed out last would run alone
-# while the other worker idles. The rest keep their order.
-LONGEST_FIRST = (
-    "test_kernels_scratch", "test_soa", "test_window_stats", "test_diffuse",
-    "test_recursive", "test_codegen", "test_rls_forms", "test_environment",
-    "test_forgetting", "test_sklearn", "test_state_files", "test_fleet",
-    "test_benchmarks_smoke", "test_cli_prewarm",
-)
-
-
-def _file_rank(item):
-    name = item.path.stem
-    return LONGEST_FIRST.index(name) if name in LONGEST_FIRST else len(LONGEST_FIRST)
-
-
 def pytest_collection_modifyitems(config, items):
-    items.sort(key=_file_rank)  # stable: the order within a file is kept
     markexpr = config.getoption("-m") or ""
     if "soak" in markexpr or SOAK:
         return
