@@ -268,7 +268,8 @@ def test_updates_and_short_runs_compile_nothing_after_a_run(rng, make):
     est = make()
     est.run(Phi[:30], y[:30])
     kernel = est._kern.run
-    before = list(kernel.signatures)
+    # (NUMBA_DISABLE_JIT=1: a plain function, nothing compiled; the equality below still holds)
+    before = getattr(kernel, "signatures", [])  # (a new list at each access)
     est.update(Phi[30], y[30])
     est.update(Phi[31], y[31], weight=0.5)
     est.run(Phi[32:33], y[32:33])
@@ -277,7 +278,7 @@ def test_updates_and_short_runs_compile_nothing_after_a_run(rng, make):
     est.run(Phi[34:37], y[34:37], weights=np.array([1.0, 0.5, 2.0]))
     if isinstance(est, adaptid.RLS):
         est.run(Phi[37:38], y[37:38], forgetting=np.array([0.9]))
-    assert kernel.signatures == before
+    assert getattr(kernel, "signatures", []) == before
     # and the short runs are the updates: a second estimator fed sample by sample
     ref = make()
     ref.run(Phi[:30], y[:30])

@@ -81,19 +81,25 @@ def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
     for i in range(NP * p):
         th[i] = S[i]
     mu = opt[1]
-    bias = opt[2] if norm else 0.0  # LMS: φᵀφ serves the finiteness test only
+    bias = opt[2]
     e = small_scratch(p)
     store = Th.shape[0] == Phi.shape[0]
     bad = -1
     for k in range(Phi.shape[0]):
         phi = Phi[k]
-        # Finiteness of the sample, cheaply: q = ε + φᵀφ is finite only if all
-        # of φ is, and εⱼ = yⱼ − φᵀθ only if yⱼ is. Both finite (the usual
+        # Finiteness of the sample, cheaply: εⱼ = yⱼ − φᵀθ is finite only if
+        # yⱼ and all of φ are (a NaN or ±inf φᵢ makes φᵢθᵢⱼ NaN or ±inf, θᵢⱼ = 0
+        # included), and q = ε + φᵀφ (NLMS) only if φ is. All finite (the usual
         # case): use the sample. Otherwise (a NaN / inf in the data, φᵀφ
         # overflowing, or θ diverged) decide exactly on the values. This
-        # replaced a test of every φᵢ that cost NLMS 12 % at n = 8.
-        q = _dot(bias, 1.0, phi, phi, 0, 1, NP)
-        ok = q - q == 0.0
+        # replaced a test of every φᵢ that cost NLMS 12 % at n = 8; LMS forms
+        # no φᵀφ (n more products per sample).
+        if norm:
+            q = _dot(bias, 1.0, phi, phi, 0, 1, NP)
+            ok = q - q == 0.0
+        else:
+            q = 0.0
+            ok = True
         for j in range(p):
             s = _dot(Y[k, j], -1.0, phi, th, j, p, NP)
             e[j] = s

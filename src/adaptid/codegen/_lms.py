@@ -90,13 +90,12 @@ $R $P_update($T *s, const $R phi[$N], $R y)
 
     /* a-priori error  eps_k = y_k - phi_k^T theta_{k-1} */
     e = dot(y, -1.0, phi, s->theta);
-    /* Finiteness of the sample, cheaply (as adaptid's kernel): q = @Q@ is
-     * finite only if phi is, eps only if y is (and theta is). Otherwise decide on
-     * the values: a sample with NaN or inf is skipped, theta unchanged, counted
-     * in n_skipped (adaptid's nan_policy="skip"); finite data with a non-finite
+    /* Finiteness of the sample, cheaply (as adaptid's kernel): eps is finite
+     * only if y and phi are (and theta is)@Q@. Otherwise decide on the values:
+     * a sample with NaN or inf is skipped, theta unchanged, counted in
+     * n_skipped (adaptid's nan_policy="skip"); finite data with a non-finite
      * error means theta diverged (the step is too large). */
-    q = dot(@BIAS@, 1.0, phi, phi);
-    if (!(q - q == 0.0 && e - e == 0.0)) {
+@CHECK@
         if (!finite_row(phi, y)) {
             s->n_skipped++;
             return NAN;
@@ -119,8 +118,7 @@ $R $P_update($T *s, const $R phi[$N], $R y)
 }
 """
 
-_GAIN_LMS = r"""    /* LMS: phi^T phi served the finiteness test only */
-    /* MATLAB recursiveLS "Gradient" (Widrow & Stearns 1985, eq. 6.3), weight 1:
+_GAIN_LMS = r"""    /* MATLAB recursiveLS "Gradient" (Widrow & Stearns 1985, eq. 6.3), weight 1:
      *   theta_k = theta_{k-1} + mu phi_k eps_k                                  */
     g = STEP;
 """
@@ -139,12 +137,15 @@ def lms_update(kind: str, n: int, unrolled: bool = True):
     (n <= MAX_SPECIALISED_N), which fuses φᵀφ's first products differently.
     """
     norm = kind == "NLMS"
-    special = n >= 8 and unrolled
-    body = _UPDATE
-    if special:
-        body = body.replace("dot(@BIAS@, 1.0, phi, phi)", "sumsq(@BIAS@, phi)")
-    body = (body.replace("@Q@", "eps0 + phi^T phi" if norm else "phi^T phi")
-            .replace("@BIAS@", "EPS0" if norm else "0.0")
+    special = n >= 8 and unrolled and norm
+    if norm:  # q = eps0 + phi^T phi, the gain's denominator, checked too
+        check = ("    q = " + ("sumsq(EPS0, phi)" if special else "dot(EPS0, 1.0, phi, phi)")
+                 + ";\n    if (!(q - q == 0.0 && e - e == 0.0)) {")
+    else:  # LMS forms no phi^T phi
+        check = "    if (!(e - e == 0.0)) {"
+    body = (_UPDATE.replace("@Q@", ", q = eps0 + phi^T phi only if phi is" if norm else "")
+            .replace("@CHECK@", check)
+            .replace("real q, e, g;", "real q, e, g;" if norm else "real e, g;")
             .replace("@GAIN@\n", _GAIN_NLMS if norm else _GAIN_LMS))
     helpers = ["FINITE", _DOT_PARTIAL if n >= 8 else _DOT_SEQ]
     return helpers + ([_SUMSQ_UNROLLED] if special else []), body
