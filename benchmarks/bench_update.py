@@ -1,0 +1,54 @@
+"""Time of one ``update`` call from Python, per algorithm (n = 4).
+
+``update`` is a run of length 1 through the compiled ``run`` of each algorithm
+(one signature for both); what is timed here is that call with its Python
+checks and, for the sliding window, the check of the pivots the window's run
+makes once per run. Best of ``--rounds`` rounds of ``--calls`` calls each;
+compile time excluded (100 calls first).
+
+    python benchmarks/bench_update.py [--rounds 7] [--calls 20000]
+
+Run it with another tree's ``src`` first on PYTHONPATH for an A/B comparison.
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+import adaptid
+
+CASES = {
+    "RLS(4, forgetting=0.99)": lambda: adaptid.RLS(4, forgetting=0.99),
+    "KalmanRLS(4)": lambda: adaptid.KalmanRLS(4, process_cov=1e-4),
+    "SlidingWindowRLS(4, 50)": lambda: adaptid.SlidingWindowRLS(4, 50),
+    "SlidingWindowRLS(4, 50, P0='diffuse')": lambda: adaptid.SlidingWindowRLS(4, 50, P0="diffuse"),
+    "LMS(4)": lambda: adaptid.LMS(4, step=0.01),
+}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=7)
+    ap.add_argument("--calls", type=int, default=20_000)
+    args = ap.parse_args(argv)
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((args.calls, 4))
+    y = X @ [1.0, -0.5, 0.25, 2.0] + 0.1 * rng.standard_normal(args.calls)
+    print(f"# adaptid {adaptid.__version__} from {adaptid.__file__}")
+    for name, make in CASES.items():
+        est = make()
+        upd = est.update
+        for k in range(100):
+            upd(X[k], float(y[k]))
+        best = np.inf
+        for _ in range(args.rounds):
+            t = time.perf_counter()
+            for k in range(args.calls):
+                upd(X[k], float(y[k]))
+            best = min(best, (time.perf_counter() - t) / args.calls)
+        print(f"{name:40s} {best * 1e6:6.2f} us per update")
+
+
+if __name__ == "__main__":
+    main()
