@@ -239,11 +239,15 @@ def test_padasip_filter_rls_same_trajectory(rng):
 
 
 # --------------------------------------------- equivalences of the interfaces
-@pytest.mark.parametrize("make", [
+# the three recursions with a covariance, as the tests below build them
+THREE = pytest.mark.parametrize("make", [
     lambda: adaptid.RLS(3, forgetting=0.97, P0=100.0),
     lambda: adaptid.SlidingWindowRLS(3, 20, forgetting=0.99, P0=100.0),
     lambda: adaptid.KalmanRLS(3, process_cov=1e-3, noise_var=0.5),
 ], ids=["rls", "window", "kalman"])
+
+
+@THREE
 def test_run_equals_updates_bit_for_bit(rng, make):
     Phi, y, _ = make_data(rng, 300, 3)
     a, b = make(), make()
@@ -255,11 +259,7 @@ def test_run_equals_updates_bit_for_bit(rng, make):
     assert a.n_updates == b.n_updates == 300
 
 
-@pytest.mark.parametrize("make", [
-    lambda: adaptid.RLS(3, forgetting=0.97, P0=100.0),
-    lambda: adaptid.SlidingWindowRLS(3, 20, forgetting=0.99, P0=100.0),
-    lambda: adaptid.KalmanRLS(3, process_cov=1e-3, noise_var=0.5),
-], ids=["rls", "window", "kalman"])
+@THREE
 def test_updates_and_short_runs_compile_nothing_after_a_run(rng, make):
     """One compiled signature serves run, update and runs of 0 or 1 sample, with
     scalar or per-sample weights and forgetting (numpy flags every array of at
@@ -289,11 +289,7 @@ def test_updates_and_short_runs_compile_nothing_after_a_run(rng, make):
     assert np.array_equal(ref.theta, est.theta)
 
 
-@pytest.mark.parametrize("make", [
-    lambda: adaptid.RLS(3, forgetting=0.97, P0=100.0),
-    lambda: adaptid.SlidingWindowRLS(3, 20, forgetting=0.99, P0=100.0),
-    lambda: adaptid.KalmanRLS(3, process_cov=1e-3, noise_var=0.5),
-], ids=["rls", "window", "kalman"])
+@THREE
 def test_batched_equals_single_runs(rng, make):
     B, N, n = 7, 200, 3
     Phi = rng.standard_normal((B, N, n))
@@ -329,11 +325,7 @@ def test_multi_output_equals_single_outputs(rng, make):
         assert np.array_equal(s.P, est.P)
 
 
-@pytest.mark.parametrize("make", [
-    lambda: adaptid.RLS(3, forgetting=0.97, P0=100.0),
-    lambda: adaptid.SlidingWindowRLS(3, 20, forgetting=0.99, P0=100.0),
-    lambda: adaptid.KalmanRLS(3, process_cov=1e-3, noise_var=0.5),
-], ids=["rls", "window", "kalman"])
+@THREE
 def test_state_round_trip_resume_bit_for_bit(rng, make, tmp_path):
     Phi, y, _ = make_data(rng, 400, 3)
     k = int(rng.integers(1, 399))
