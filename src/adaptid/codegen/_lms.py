@@ -145,8 +145,9 @@ def lms_update(kind: str, n: int, unrolled: bool = True):
         check = "    if (!(e - e == 0.0)) {"
     body = (_UPDATE.replace("@Q@", ", q = eps0 + phi^T phi only if phi is" if norm else "")
             .replace("@CHECK@", check)
-            .replace("real q, e, g;", "real q, e, g;" if norm else "real e, g;")
             .replace("@GAIN@\n", _GAIN_NLMS if norm else _GAIN_LMS))
+    if not norm:
+        body = body.replace("real q, e, g;", "real e, g;")
     helpers = ["FINITE", _DOT_PARTIAL if n >= 8 else _DOT_SEQ]
     return helpers + ([_SUMSQ_UNROLLED] if special else []), body
 

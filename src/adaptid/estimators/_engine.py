@@ -527,11 +527,12 @@ class RecursiveEstimator:
             "positive definiteness; the window was re-solved exactly from its buffer "
             "(poorly excited window?)", DefinitenessLossWarning, stacklevel=4)
 
-    def _check_final_windup(self):
-        """After a run whose kernel does not watch the pivots (the window's)."""
-        _, D = self._ud_views(self._S)
-        if not np.all((D > 0) & (D < self._windup_threshold)):
-            self._warn_nonpositive(f"≤ {self.n_updates}")
+    def _check_pivots(self, D, where):
+        """The window's kernel does not watch the pivots: after a run or a step the
+        engine checks them all in (0, windup_threshold) (a NaN is not). D: 1-D."""
+        thr = self._windup_threshold
+        if not all(0.0 < d < thr for d in D.tolist()):
+            self._warn_nonpositive(where)
 
     def _report_codes(self, codes, where):
         """Warnings for the kernel's return codes (one per stream or segment)."""
@@ -539,7 +540,7 @@ class RecursiveEstimator:
         if self._code_is_rebuilds:
             if codes.sum():
                 self._warn_rebuild(int(codes.sum()))
-            self._check_final_windup()
+            self._check_pivots(self._ud_views(self._S)[1].ravel(), f"≤ {self.n_updates}")
         elif (codes >= 0).any():
             first = int(np.argmax(codes >= 0))
             self._warn_nonpositive(int(codes[first]) if where is None
@@ -627,9 +628,7 @@ class RecursiveEstimator:
         if self._code_is_rebuilds:  # the window: code counts re-solves; D is checked here
             if code:
                 self._warn_rebuild(1)
-            thr = self._windup_threshold  # pivots in (0, thr), NaN not (as in run)
-            if not all(0.0 < d < thr for d in a.D.tolist()):
-                self._warn_nonpositive(self.n_updates)
+            self._check_pivots(a.D, self.n_updates)
         elif code >= 0:
             self._warn_nonpositive(self.n_updates)
         elif code <= -2:  # a repaired covariance (RLS form="covariance")
