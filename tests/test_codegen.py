@@ -146,7 +146,7 @@ def _rel(a, b):
 # --------------------------------------------------------------------------
 # data and estimators
 # --------------------------------------------------------------------------
-def _data(n=4, seed=18, nan_rows=(17, 5000, 77777)):
+def _data(n=3, seed=18, nan_rows=(17, 5000, 77777)):
     rng = np.random.default_rng(seed)
     Phi = rng.standard_normal((N, n))
     theta = rng.standard_normal(n)
@@ -160,7 +160,7 @@ def _data(n=4, seed=18, nan_rows=(17, 5000, 77777)):
 
 
 def _cases():
-    n = 4
+    n = 3  # the size of test_recursive's and test_kernels_scratch's kernels: compiled once
     kw = dict(nan_policy="skip")
     return {
         "rls": adaptid.RLS(n, forgetting=0.99, **kw),
@@ -252,7 +252,7 @@ def test_pmax_cases_exercise_the_bound(exported, data, key, strategy):
     """The P_max cases above are not vacuous: without P_max the trajectory differs."""
     Phi, y = data
     est, tr, ref, exe, folder = exported[key]
-    free = adaptid.RLS(4, forgetting=strategy, nan_policy="skip")
+    free = adaptid.RLS(est.n_params, forgetting=strategy, nan_policy="skip")
     free.run(Phi[:200] * 0.5, y[:200])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CovarianceWindupWarning)  # what P_max prevents
@@ -278,13 +278,13 @@ def test_generic_kernel_n18_bitwise(tmp_path, forgetting):
 
 
 def test_window_rebuild_path(tmp_path):
-    """A window of M = n = 4 with a diffuse prior: removals that would lose
+    """A window of M = n = 3 with a diffuse prior: removals that would lose
     definiteness are replaced by the re-solve from the buffer, in C as in Python
     (nan_policy="skip": the kernels compiled for the cases above)."""
     rng = np.random.default_rng(3)
-    Phi = rng.standard_normal((20_000, 4))
-    y = Phi @ rng.standard_normal(4) + 0.01 * rng.standard_normal(20_000)
-    est = adaptid.SlidingWindowRLS(4, 4, P0=1e12, nan_policy="skip")
+    Phi = rng.standard_normal((20_000, 3))
+    y = Phi @ rng.standard_normal(3) + 0.01 * rng.standard_normal(20_000)
+    est = adaptid.SlidingWindowRLS(3, 3, P0=1e12, nan_policy="skip")
     with pytest.warns(DefinitenessLossWarning):
         tr = est.copy().run(Phi, y)
     assert tr.n_rebuilds > 0
