@@ -43,16 +43,25 @@ def test_dryer_arx_batch_equals_models_arx(dryer_csv):
     assert round(out["theta"][0], 4) == -1.2887
 
 
-def test_dryer_arx_recursive_equals_fit_recursive(dryer_csv):
+@pytest.mark.parametrize("flags, make", [
+    (["--forgetting", "0.995"], lambda: adaptid.RLS(4, forgetting=0.995)),
+    (["--method", "window", "--window", "300"], lambda: adaptid.SlidingWindowRLS(4, 300)),
+    (["--method", "kalman", "--process-cov", "1e-6", "--noise-var", "0.01"],
+     lambda: adaptid.estimator("kalman", 4, process_cov=1e-6, noise_var=0.01)),
+], ids=["forgetting", "window", "kalman"])
+def test_dryer_arx_recursive_equals_fit_recursive(dryer_csv, flags, make):
+    """θ and the standard errors: the shell and the model object use the one rule
+    of adaptid.recursive_fit_stats (under forgetting, in the window, with R₂)."""
     path, u, y = dryer_csv
-    out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3",
-                   "--forgetting", "0.995")
+    out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", *flags)
     m = models.ARX(2, 2, 3)
-    m.fit_recursive(y, u, adaptid.RLS(4, forgetting=0.995))
+    est = make()
+    m.fit_recursive(y, u, est)
     # a sign flip of a regressor column and of its parameter commutes exactly with RLS
     # from a P0·I prior: equal to rounding
     np.testing.assert_allclose(out["theta"], m.theta, rtol=1e-10, atol=1e-13)
     assert out["theta"][0] < 0
+    np.testing.assert_allclose(out["stderr"], np.sqrt(np.diag(m.cov)), rtol=1e-9)
 
 
 def test_two_inputs_named_by_column(rng, tmp_path):

@@ -146,10 +146,13 @@ class ARX(_PolyModel):
         -------
         Trajectory
             ``theta[i]`` is the estimate after row i (sample
-            ``meta["index"][i]``). The model takes the final estimate,
-            ``cov`` = σ̂² P (meaningful without forgetting).
+            ``meta["index"][i]``). The model takes the final estimate;
+            ``noise_variance`` and ``cov`` = σ̂² P / R₂ follow the one rule of
+            :func:`adaptid.recursive_fit_stats` (the cost-weighted residuals
+            of the final estimate; R₂ the Kalman filter's ``noise_var``, 1
+            otherwise), as ``adaptid fit --arx`` reports them.
         """
-        from ..estimators import RLS, KalmanRLS, SlidingWindowRLS
+        from ..estimators import RLS, KalmanRLS, SlidingWindowRLS, recursive_fit_stats
         from .._validation import param_error
 
         reg, Phi = self._prepare(y, u)
@@ -167,9 +170,10 @@ class ARX(_PolyModel):
         traj = est.run(Phi, reg.y)
         self.theta = np.asarray(est.theta, dtype=np.float64).reshape(-1)
         self.residuals = reg.y - Phi @ self.theta
-        N = self.residuals.size
-        self.noise_variance = float(self.residuals @ self.residuals) / max(N - d, 1)
-        self.cov = self.noise_variance * np.asarray(est.P)
+        fs = recursive_fit_stats(est, Phi, reg.y, forgetting=traj.forgetting,
+                                 used=None if traj.skipped is None else ~traj.skipped)
+        self.noise_variance = fs.sigma2
+        self.cov = fs.sigma2 * np.asarray(est.P) / float(getattr(est, "noise_var", 1.0))
         self.index = reg.index
         self.names = self._names()
         self.estimator = est
