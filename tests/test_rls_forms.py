@@ -244,6 +244,37 @@ def test_covariance_form_repair_in_batched_and_segments_warns(rng):
     assert np.all(np.isfinite(res.theta))
 
 
+@pytest.mark.parametrize("n", [8, 13])
+def test_covariance_vector_sweep_monitor_is_the_rule(rng, n):
+    """n in the range of the vector sweep (5..32, _kernels/_covsweep.py), a full
+    block and one with a rest: the windup sample the kernel reports is the rule's,
+    evaluated in NumPy on P after every update()."""
+    N = 600
+    Phi = rng.standard_normal((N, n))
+    Phi[:, -1] *= (np.arange(N) % 300) < 30  # the last regressor excited in bursts
+    y = Phi @ rng.standard_normal(n)
+    thr = 20.0
+    one = adaptid.RLS(n, forgetting=0.97, P0=1.0, windup_threshold=thr, form="covariance")
+    k_rule = None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
+        for k in range(N):
+            one.update(Phi[k], y[k])
+            dg = np.diag(one.P)
+            if not np.all((dg > 0) & (dg < thr)):
+                k_rule = k
+                break
+    assert k_rule is not None and k_rule > 30
+    est = adaptid.RLS(n, forgetting=0.97, P0=1.0, windup_threshold=thr, form="covariance")
+    with pytest.warns(adaptid.CovarianceWindupWarning, match=f"at sample {k_rule}:"):
+        est.run(Phi, y)
+    # and the run is the updates, bit for bit, up to there
+    part = adaptid.RLS(n, forgetting=0.97, P0=1.0, windup_threshold=thr, form="covariance")
+    with pytest.warns(adaptid.CovarianceWindupWarning):
+        part.run(Phi[:k_rule + 1], y[:k_rule + 1])
+    assert np.array_equal(part.P, one.P) and np.array_equal(part.theta, one.theta)
+
+
 @pytest.mark.parametrize("form", ("ud", "sqrt"))
 def test_factored_forms_need_no_repair_on_the_same_data(rng, form):
     Phi, y = _unexcited(rng)

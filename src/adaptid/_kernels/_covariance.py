@@ -19,6 +19,9 @@ in exact arithmetic): at these sizes the update is bound by the latency of one
 sample's chain of dependent operations, and this takes the square root off it.
 The P update of sample k is fused with :math:`u = P\varphi_{k+1}` of the next
 (``u += P[j, :] φⱼ``, an axpy LLVM vectorises); one sweep over P per sample.
+For a compile-time 4 < n ≤ 32 the sweep, with c = u/√d, is hand-written LLVM
+vector code (:mod:`._covsweep`: numba leaves the SLP vectoriser off, and the
+unrolled loops of c and of the sweep stayed scalar); the same operations.
 From n = 8 on, :math:`\varphi^T u` is summed in 8 partial sums added as a
 tree (a chain of n/8 + 3 dependent adds instead of n).
 
@@ -47,10 +50,12 @@ and reads the same code).
 """
 
 import numpy as np
-from numba import prange
+from numba import prange, types
+from numba.extending import overload
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import _segment_start, _views
+from ._covsweep import VECTOR_SWEEP_MAX, cov_sweep_n
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
 
@@ -59,6 +64,7 @@ EPS = 2.220446049250313e-16
 BINF = 0x7FF0000000000000
 #: up to this n the rank-one term is (u uᵀ)/d, no square root on the critical path
 SQRT_FREE_N = 4
+_OPTS = {"fastmath": NJIT["fastmath"]}
 
 
 @njit(**NJIT)
@@ -238,10 +244,27 @@ def _measure(P, theta, u, c, e, Phi, k, kn, q, r, il, bd, NP, p):
         for i in range(NP):
             c[i] = u[i]
         return _sweep(P, c, u, idd, il, Phi, kn, bd, NP)
-    sq = idd * np.sqrt(d)
+    return _sweep_scaled(P, c, u, idd * np.sqrt(d), il, Phi, kn, bd, NP)
+
+
+def _sweep_scaled(P, c, u, sq, il, Phi, kn, bd, NP):
+    """:func:`_sweep` with c = u·sq (n > SQRT_FREE_N). For a compile-time
+    n ≤ ``VECTOR_SWEEP_MAX`` the overload below runs it as LLVM vector code
+    (:mod:`._covsweep`), the same operations."""
     for i in range(NP):
         c[i] = u[i] * sq
     return _sweep(P, c, u, 1.0, il, Phi, kn, bd, NP)
+
+
+@overload(_sweep_scaled, inline="always", prefer_literal=True, jit_options=_OPTS)
+def _sweep_scaled_compiled(P, c, u, sq, il, Phi, kn, bd, NP):
+    if not (isinstance(NP, types.IntegerLiteral) and NP.literal_value <= VECTOR_SWEEP_MAX):
+        return _sweep_scaled
+
+    def impl(P, c, u, sq, il, Phi, kn, bd, NP):
+        lo, hi = cov_sweep_n(P, u, sq, il, Phi, kn, NP)
+        return (lo > 0) & (hi < bd), (lo > 0) & (hi <= BINF)
+    return impl
 
 
 @njit(**NJIT_INLINE)
