@@ -26,7 +26,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from ._potter import LANES, _ptr, _splat
+from ._potter import LANES, _loop_end, _ptr, _splat, _store_vecs
 
 
 def _blocks(n):
@@ -67,17 +67,10 @@ def _cov_sweep_ir(builder, P, u, x, s, il, n):
         v = builder.fmul(v, ils[t.count])
         builder.store(v, p, align=8)
         new.append(builder.call(fmas[t.count], [v, _splat(builder, pj, t), acc[b]]))
-    j1 = builder.add(j, ir.Constant(i64, 1))
-    builder.cbranch(builder.icmp_signed("<", j1, ir.Constant(i64, n)), loop, done)
-    for phi, start, nxt in [(j, ir.Constant(i64, 0), j1)] + \
-            [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(acc, vecs, new)]:
-        phi.add_incoming(start, pre)
-        phi.add_incoming(nxt, loop)
-    builder.position_at_end(done)
-    for b, (t, v) in enumerate(zip(vecs, new)):
-        builder.store(v, _ptr(builder, u, LANES * b, t), align=8)
-    # the diagonal's bits after the sweep (read back per row, right after the row's
-    # vector stores, a load that store forwarding served slowly: n = 64 ran 20 % slower)
+    _loop_end(builder, pre, loop, done, j, n,
+              [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(acc, vecs, new)])
+    _store_vecs(builder, u, vecs, new)
+    # the bits of the new diagonal, read once the sweep is done
     lo, hi = ir.Constant(i64, 0x7FF0000000000000), ir.Constant(i64, 0)
     for i in range(n):
         bits = builder.load(builder.bitcast(builder.gep(P, [ir.Constant(i64, i * (n + 1))]),

@@ -137,16 +137,29 @@ def _sweep_ir(builder, F, f, a, x, h, s, n, update):
     hn = [builder.call(fmas[t.count], [v, _splat(builder, fn, t), hv])
           for t, v, hv in zip(vecs, vals, hs)]
     qn = builder.call(fma, [fn, fn, q])
+    _loop_end(builder, pre, loop, done, j, n, [(q, ir.Constant(dbl, 0.0), qn)] +
+              [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(hs, vecs, hn)])
+    _store_vecs(builder, h, vecs, hn)
+    return qn
+
+
+def _loop_end(builder, pre, loop, done, j, n, phis):
+    """Close a loop over j = 0..n−1 begun in ``loop`` after ``pre``: branch back while
+    j + 1 < n, give j and the ``phis`` (phi, start, next) their incoming values, and
+    continue in ``done``."""
+    i64 = ir.IntType(64)
     j1 = builder.add(j, ir.Constant(i64, 1))
     builder.cbranch(builder.icmp_signed("<", j1, ir.Constant(i64, n)), loop, done)
-    for phi, start, nxt in [(j, ir.Constant(i64, 0), j1), (q, ir.Constant(dbl, 0.0), qn)] + \
-            [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(hs, vecs, hn)]:
+    for phi, start, nxt in [(j, ir.Constant(i64, 0), j1)] + phis:
         phi.add_incoming(start, pre)
         phi.add_incoming(nxt, loop)
     builder.position_at_end(done)
-    for b, (t, v) in enumerate(zip(vecs, hn)):
-        builder.store(v, _ptr(builder, h, LANES * b, t), align=8)
-    return qn
+
+
+def _store_vecs(builder, base, vecs, values):
+    """Store the vectors ``values`` (of the types ``vecs``) one after the other at base."""
+    for b, (t, v) in enumerate(zip(vecs, values)):
+        builder.store(v, _ptr(builder, base, LANES * b, t), align=8)
 
 
 @intrinsic
