@@ -82,6 +82,22 @@ def test_rule_is_ols_for_lambda_one(device):
     assert out["sigma2"] == pytest.approx(s2, rel=1e-6)
 
 
+@pytest.mark.parametrize("make", [
+    lambda: adaptid.RLS(3, P0="diffuse"),
+    lambda: adaptid.KalmanRLS(3, process_cov=0.0, noise_var=0.25, P0="diffuse"),
+], ids=["rls", "kalman-R2"])
+def test_scale_times_P_is_the_ols_covariance(device, make):
+    """``scale · P`` is the covariance of θ̂: for λ = 1 (no process noise) and a
+    diffuse start, lstsq's σ̂² (ΦᵀΦ)⁻¹ whatever the Kalman filter's R₂."""
+    _, Phi, y = device
+    est = make()
+    est.run(Phi, y)
+    st = adaptid.recursive_fit_stats(est, Phi, y)
+    res = adaptid.lstsq(Phi, y)
+    np.testing.assert_allclose(st.scale * est.P, res.cov, rtol=1e-9)
+    np.testing.assert_allclose(np.sqrt(np.diag(st.scale * est.P)), st.stderr, rtol=1e-12)
+
+
 def test_sklearn_uses_the_rule(device):
     import sklearn  # noqa: F401 - the test extra installs it (missing: a failure)
     from adaptid.sklearn import RLSRegressor

@@ -324,9 +324,7 @@ def fit_equation(title, names, Phi, y, index, spec: MethodSpec, *, nan_policy="r
                 raise CLIError(f"{title}: {e}") from None
             warm = min(10 * n, N // 2) if (fresh or start_updates == 0) else 0
             stats = _fit_stats(est, Phi, y, skipped)
-            sigma2 = stats.sigma2
-            r2 = float(getattr(est, "noise_var", 1.0))
-            scale = sigma2 / r2 if np.isfinite(sigma2) else np.nan
+            sigma2, scale = stats.sigma2, stats.scale
             cov = scale * _cov_or_nan(est)
             band = np.sqrt(np.maximum(scale * np.diagonal(Ps, axis1=1, axis2=2), 0.0))
             finite = np.isfinite(err)

@@ -19,13 +19,18 @@ __all__ = ["RecursiveFitStats", "recursive_fit_stats", "sample_factors", "sigma2
 
 @dataclass(frozen=True)
 class RecursiveFitStats:
-    """σ̂², standard errors and their degrees of freedom (see :func:`recursive_fit_stats`)."""
+    """σ̂², standard errors and their degrees of freedom (see :func:`recursive_fit_stats`).
+
+    ``scale`` = σ̂²/R₂ turns the estimator's P into the covariance of θ̂,
+    ``cov = scale · P`` (R₂ the Kalman filter's ``noise_var``, 1 otherwise).
+    """
 
     sigma2: float
     stderr: np.ndarray
     dof: float
     n_eff: float
     ssr: float
+    scale: float = float("nan")
 
 
 def sample_factors(kind, N, *, forgetting=None, window=None, used=None):
@@ -92,7 +97,8 @@ def recursive_fit_stats(est, Phi, y, *, weights=None, forgetting=None, used=None
     -------
     RecursiveFitStats
         ``sigma2`` (NaN when the degrees of freedom are not positive),
-        ``stderr`` (n,), ``dof`` = Σcₖ − n, ``n_eff`` = Σcₖ, ``ssr`` = Σcₖwₖrₖ².
+        ``stderr`` (n,), ``dof`` = Σcₖ − n, ``n_eff`` = Σcₖ, ``ssr`` = Σcₖwₖrₖ²,
+        ``scale`` = σ̂²/R₂ (``cov = scale · P``).
     """
     from ._factory import method_of
     kind = method_of(est)
@@ -119,9 +125,11 @@ def recursive_fit_stats(est, Phi, y, *, weights=None, forgetting=None, used=None
     if not type(est)._has_covariance:  # LMS / NLMS: no P, no standard errors
         sigma2 = ssr / dof if dof > 0 else float("nan")
         return RecursiveFitStats(sigma2=sigma2, stderr=np.full(n, np.nan), dof=dof,
-                                 n_eff=n_eff, ssr=ssr)
+                                 n_eff=n_eff, ssr=ssr,
+                                 scale=sigma2 if np.isfinite(sigma2) else float("nan"))
     r2 = float(getattr(est, "noise_var", 1.0))
     sigma2, stderr = sigma2_rule(np.array([ssr]), np.float64(n_eff), n,
                                  np.diagonal(np.asarray(est.P)), r2)
-    return RecursiveFitStats(sigma2=float(sigma2[0]), stderr=stderr[:, 0], dof=dof,
-                             n_eff=n_eff, ssr=ssr)
+    s2 = float(sigma2[0])
+    return RecursiveFitStats(sigma2=s2, stderr=stderr[:, 0], dof=dof, n_eff=n_eff, ssr=ssr,
+                             scale=s2 / r2 if np.isfinite(s2) else float("nan"))

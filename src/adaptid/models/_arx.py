@@ -173,7 +173,7 @@ class ARX(_PolyModel):
         fs = recursive_fit_stats(est, Phi, reg.y, forgetting=traj.forgetting,
                                  used=None if traj.skipped is None else ~traj.skipped)
         self.noise_variance = fs.sigma2
-        self.cov = fs.sigma2 * np.asarray(est.P) / float(getattr(est, "noise_var", 1.0))
+        self.cov = fs.scale * np.asarray(est.P)
         self.index = reg.index
         self.names = self._names()
         self.estimator = est
