@@ -14,7 +14,9 @@
   signature: an array of N + 1 rows when asked for, None when not, chosen at
   compile time);
 * :mod:`._potter`, :mod:`._covariance` — RLS in square-root and covariance form
-  (``RLS(form=...)``), same three entry points;
+  (``RLS(form=...)``), same three entry points; their sweeps for a
+  compile-time n are LLVM vector IR (:mod:`._covsweep`, helpers in
+  :mod:`._vecir`);
 * :mod:`._dims` — the tags that make n and p compile-time constants
   (specialisation per n without generating source), :mod:`._scratch` —
   stack-allocated work arrays.

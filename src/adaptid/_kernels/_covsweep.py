@@ -26,13 +26,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from ._potter import LANES, _loop_end, _ptr, _splat, _store_vecs
-
-
-def _blocks(n):
-    dbl = ir.DoubleType()
-    return [ir.VectorType(dbl, LANES)] * (n // LANES) + \
-        ([ir.VectorType(dbl, n % LANES)] if n % LANES else [])
+from ._vecir import LANES, _ptr, _splat, loop_end, store_vecs, vector_blocks, vector_fmas
 
 
 #: the largest n swept by this code; above it the scalar loops of _covariance,
@@ -45,9 +39,8 @@ def _cov_sweep_ir(builder, P, u, x, s, il, n):
     """The IR of the sweep (module docstring); returns (lo, hi), the smallest and the
     largest bits (signed int64) of the new diagonal."""
     i64 = ir.IntType(64)
-    vecs = _blocks(n)
-    fmas = {t.count: cgutils.get_or_insert_function(
-        builder.module, ir.FunctionType(t, [t] * 3), f"llvm.fma.v{t.count}f64") for t in vecs}
+    vecs = vector_blocks(n)
+    fmas = vector_fmas(builder, vecs)
     c = [builder.fmul(builder.load(_ptr(builder, u, LANES * b, t), align=8), _splat(builder, s, t))
          for b, t in enumerate(vecs)]
     ils = {t.count: _splat(builder, il, t) for t in vecs}
@@ -67,9 +60,9 @@ def _cov_sweep_ir(builder, P, u, x, s, il, n):
         v = builder.fmul(v, ils[t.count])
         builder.store(v, p, align=8)
         new.append(builder.call(fmas[t.count], [v, _splat(builder, pj, t), acc[b]]))
-    _loop_end(builder, pre, loop, done, j, n,
+    loop_end(builder, pre, loop, done, j, n,
               [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(acc, vecs, new)])
-    _store_vecs(builder, u, vecs, new)
+    store_vecs(builder, u, vecs, new)
     # the bits of the new diagonal, read once the sweep is done
     lo, hi = ir.Constant(i64, 0x7FF0000000000000), ir.Constant(i64, 0)
     for i in range(n):

@@ -63,10 +63,11 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import _segment_start, _views
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
+from ._vecir import LANES, _lanes, _ptr, _splat, loop_end, store_vecs, vector_blocks, \
+    vector_fmas
 
 _OPTS = {"fastmath": NJIT["fastmath"]}
 
-LANES = 8  # the dot products' fixed lane count (part of the arithmetic: keep it)
 #: relative slack τ = SLACK·(n + 16) of the bounds on diag(P) per sample: 64 units
 #: of 2⁻⁵³ per (n + 16), over four times what the rounding of one update of S (and
 #: of the rule's sum of squares) can move a row's norm² by (module docstring)
@@ -76,33 +77,14 @@ SLACK = 64 * 2.0 ** -53
 FLOOR, CEIL = 1e-280, 1e300
 
 
-def _ptr(builder, base, off, ty):
-    """&base[off] (doubles), as a pointer to ``ty`` (a vector or a double)."""
-    return builder.bitcast(builder.gep(base, [ir.Constant(ir.IntType(64), off)]),
-                           ty.as_pointer())
-
-
-def _splat(builder, x, vec):
-    u = ir.Constant(vec, ir.Undefined)
-    for lane in range(vec.count):
-        u = builder.insert_element(u, x, ir.Constant(ir.IntType(32), lane))
-    return u
-
-
-def _lanes(builder, v):
-    return [builder.extract_element(v, ir.Constant(ir.IntType(32), k)) for k in range(v.type.count)]
-
-
 def _sweep_ir(builder, F, f, a, x, h, s, n, update):
     """The LLVM IR of :func:`_sweep` (``update``) or :func:`_fresh` for a compile-time n:
     a loop over the columns j, each in vectors of LANES doubles and one of the n % LANES
     rows left (their products summed one by one into lane 0, as :func:`_coldot`), with
     h and q in registers across columns."""
     i64, dbl = ir.IntType(64), ir.DoubleType()
-    vecs = [ir.VectorType(dbl, LANES)] * (n // LANES) + \
-        ([ir.VectorType(dbl, n % LANES)] if n % LANES else [])
-    fmas = {t.count: cgutils.get_or_insert_function(
-        builder.module, ir.FunctionType(t, [t] * 3), f"llvm.fma.v{t.count}f64") for t in vecs}
+    vecs = vector_blocks(n)
+    fmas = vector_fmas(builder, vecs)
     fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(dbl, [dbl] * 3),
                                          "llvm.fma.f64")
     pre, loop, done = builder.block, builder.append_basic_block(), builder.append_basic_block()
@@ -137,29 +119,10 @@ def _sweep_ir(builder, F, f, a, x, h, s, n, update):
     hn = [builder.call(fmas[t.count], [v, _splat(builder, fn, t), hv])
           for t, v, hv in zip(vecs, vals, hs)]
     qn = builder.call(fma, [fn, fn, q])
-    _loop_end(builder, pre, loop, done, j, n, [(q, ir.Constant(dbl, 0.0), qn)] +
+    loop_end(builder, pre, loop, done, j, n, [(q, ir.Constant(dbl, 0.0), qn)] +
               [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(hs, vecs, hn)])
-    _store_vecs(builder, h, vecs, hn)
+    store_vecs(builder, h, vecs, hn)
     return qn
-
-
-def _loop_end(builder, pre, loop, done, j, n, phis):
-    """Close a loop over j = 0..n−1 begun in ``loop`` after ``pre``: branch back while
-    j + 1 < n, give j and the ``phis`` (phi, start, next) their incoming values, and
-    continue in ``done``."""
-    i64 = ir.IntType(64)
-    j1 = builder.add(j, ir.Constant(i64, 1))
-    builder.cbranch(builder.icmp_signed("<", j1, ir.Constant(i64, n)), loop, done)
-    for phi, start, nxt in [(j, ir.Constant(i64, 0), j1)] + phis:
-        phi.add_incoming(start, pre)
-        phi.add_incoming(nxt, loop)
-    builder.position_at_end(done)
-
-
-def _store_vecs(builder, base, vecs, values):
-    """Store the vectors ``values`` (of the types ``vecs``) one after the other at base."""
-    for b, (t, v) in enumerate(zip(vecs, values)):
-        builder.store(v, _ptr(builder, base, LANES * b, t), align=8)
 
 
 @intrinsic

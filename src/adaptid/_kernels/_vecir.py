@@ -1,0 +1,60 @@
+"""Helpers that build LLVM vector IR for the sweeps of the square-root and
+covariance forms (:mod:`._potter`, :mod:`._covsweep`): numba leaves LLVM's SLP
+vectoriser off, so for a compile-time n these sweeps are written as vector IR.
+"""
+
+from llvmlite import ir
+from numba.core import cgutils
+
+#: doubles per vector. Also the fixed lane count of the square-root form's dot
+#: products (part of its arithmetic: keep it).
+LANES = 8
+
+
+def _ptr(builder, base, off, ty):
+    """&base[off] (doubles), as a pointer to ``ty`` (a vector or a double)."""
+    return builder.bitcast(builder.gep(base, [ir.Constant(ir.IntType(64), off)]),
+                           ty.as_pointer())
+
+
+def _splat(builder, x, vec):
+    u = ir.Constant(vec, ir.Undefined)
+    for lane in range(vec.count):
+        u = builder.insert_element(u, x, ir.Constant(ir.IntType(32), lane))
+    return u
+
+
+def _lanes(builder, v):
+    return [builder.extract_element(v, ir.Constant(ir.IntType(32), k)) for k in range(v.type.count)]
+
+
+def vector_blocks(n):
+    """The vector types covering n doubles: n // LANES of LANES, and one of the rest."""
+    dbl = ir.DoubleType()
+    return [ir.VectorType(dbl, LANES)] * (n // LANES) + \
+        ([ir.VectorType(dbl, n % LANES)] if n % LANES else [])
+
+
+def vector_fmas(builder, vecs):
+    """``llvm.fma`` declared for each vector width in ``vecs``, by width."""
+    return {t.count: cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(t, [t] * 3), f"llvm.fma.v{t.count}f64") for t in vecs}
+
+
+def loop_end(builder, pre, loop, done, j, n, phis):
+    """Close a loop over j = 0..n−1 begun in ``loop`` after ``pre``: branch back while
+    j + 1 < n, give j and the ``phis`` (phi, start, next) their incoming values, and
+    continue in ``done``."""
+    i64 = ir.IntType(64)
+    j1 = builder.add(j, ir.Constant(i64, 1))
+    builder.cbranch(builder.icmp_signed("<", j1, ir.Constant(i64, n)), loop, done)
+    for phi, start, nxt in [(j, ir.Constant(i64, 0), j1)] + phis:
+        phi.add_incoming(start, pre)
+        phi.add_incoming(nxt, loop)
+    builder.position_at_end(done)
+
+
+def store_vecs(builder, base, vecs, values):
+    """Store the vectors ``values`` (of the types ``vecs``) one after the other at base."""
+    for b, (t, v) in enumerate(zip(vecs, values)):
+        builder.store(v, _ptr(builder, base, LANES * b, t), align=8)
