@@ -252,3 +252,42 @@ def test_control_plain_numba_fails_on_the_same_damage(tmp_path):
                           cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert proc.returncode != 0
     assert "Error" in proc.stderr
+
+
+# ------------------------------------------------------------- loading, not compiling
+WARM_THEN_COMPILE = textwrap.dedent("""
+    import sys, numpy as np, numba
+    import adaptid
+    from adaptid._kernels import _rls
+    est = adaptid.RLS(3)
+    est.run(np.eye(3), [1.0, 2.0, 3.0])
+    print("THETA", list(est.theta))
+    print("HITS", sum(_rls.rls_run.stats.cache_hits.values()),
+          sum(_rls.rls_run.stats.cache_misses.values()))
+    print("LINALG", "scipy.linalg" in sys.modules)
+    # a compilation after the load: numba loads its registries (BLAS included) itself
+    gram = numba.njit(lambda A: A.T @ A)
+    rng = np.random.default_rng(1)
+    A = rng.standard_normal((40, 5))
+    print("GRAM", np.allclose(gram(A), A.T @ A, rtol=1e-13, atol=0.0))
+    big = adaptid.RLS(5, P0=1e4)
+    Phi = rng.standard_normal((30, 5)); y = Phi @ np.arange(1.0, 6.0)
+    big.run(Phi, y)
+    ridge = np.linalg.lstsq(np.vstack([Phi, np.eye(5) / np.sqrt(1e4)]),
+                            np.concatenate([y, np.zeros(5)]), rcond=None)[0]
+    print("BIG", np.allclose(big.theta, ridge, rtol=1e-10, atol=0.0))
+""")
+
+
+def test_cached_kernels_load_without_the_compiler_registries(tmp_path, filled_cache):
+    """A process whose kernels all come from the cache does not pay for numba's
+    compile-time registries (scipy.linalg, cffi, ...: about 0.2 s), gives the same
+    numbers, and can still compile afterwards (numba's compiler refreshes itself)."""
+    template, first = filled_cache
+    cache = tmp_path / "cache"
+    shutil.copytree(template, cache)
+    out, _ = _run(WARM_THEN_COMPILE, _env(tmp_path, NUMBA_CACHE_DIR=cache), tmp_path)
+    assert out["THETA"] == first["THETA"]
+    assert out["HITS"] == "1 0"              # loaded, not compiled
+    assert out["LINALG"] == "False"          # numba's full refresh did not run
+    assert out["GRAM"] == "True" and out["BIG"] == "True"

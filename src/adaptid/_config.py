@@ -126,6 +126,20 @@ def njit(*args, **options):
     return wrap
 
 
+def _start_runtime(target_context):
+    """What loading compiled code from the cache needs of numba's target: its runtime.
+
+    numba's ``FunctionCache.load_overload`` first calls ``target_context.refresh()``,
+    which also loads every typing and lowering registry of numba (and with them
+    scipy.linalg, cffi, ...): about 0.2 s in the first process that loads a
+    kernel, needed to *compile* but not to load compiled code. The code of a
+    cached kernel needs the runtime (NRT) symbols only; a compilation that
+    follows refreshes the context itself (``numba.core.compiler``).
+    """
+    from numba.core.runtime import rtsys
+    rtsys.initialize(target_context)
+
+
 def _tolerant_base():
     from numba.core.caching import FunctionCache
     return FunctionCache
@@ -142,10 +156,17 @@ def _tolerant_cache():
     class _TolerantCache(_tolerant_base()):
         def load_overload(self, sig, target_context):
             try:
-                return super().load_overload(sig, target_context)
+                return self._load_compiled(sig, target_context)
             except Exception:  # noqa: BLE001 - UnpicklingError, EOFError, OSError, ...
                 self._drop_index()
                 return None     # a miss: numba compiles
+
+        def _load_compiled(self, sig, target_context):
+            load = getattr(super(), "_load_overload", None)
+            if load is None:                # other numba internals: numba's own path
+                return super().load_overload(sig, target_context)
+            _start_runtime(target_context)
+            return load(sig, target_context)
 
         def save_overload(self, sig, data):
             try:
