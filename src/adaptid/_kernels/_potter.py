@@ -24,8 +24,9 @@ forms the next sample's :math:`f_j = S_{:,j}^T\varphi_{k+1}` (a dot product
 in eight fixed lanes, so the same bits whatever the vector width), and
 accumulates :math:`h \mathrel{+}= S_{:,j} f_j` and :math:`q = f^Tf` — three
 multiply-adds and a multiply per entry of S. A sample that was skipped or had
-weight 0 makes the next one form f and h afresh, with the same lane arithmetic,
-so ``update`` equals ``run`` bit for bit. For a compile-time n the sweep is
+weight 0 makes the next one form f and h afresh, by the same sweep with S left
+as it is (s = 1, a = 0: every entry is rewritten unchanged), so ``update``
+equals ``run`` bit for bit. For a compile-time n the sweep is
 LLVM vector code (:func:`_sweep_n`: numba does not SLP-vectorise the unrolled
 loops of a constant n); the run-time-n kernel runs the same arithmetic as loops.
 
@@ -77,8 +78,8 @@ SLACK = 64 * 2.0 ** -53
 FLOOR, CEIL = 1e-280, 1e300
 
 
-def _sweep_ir(builder, F, f, a, x, h, s, n, update):
-    """The LLVM IR of :func:`_sweep` (``update``) or :func:`_fresh` for a compile-time n:
+def _sweep_ir(builder, F, f, a, x, h, s, n):
+    """The LLVM IR of :func:`_sweep` for a compile-time n:
     a loop over the columns j, each in vectors of LANES doubles and one of the n % LANES
     rows left (their products summed one by one into lane 0, as :func:`_coldot`), with
     h and q in registers across columns."""
@@ -99,11 +100,10 @@ def _sweep_ir(builder, F, f, a, x, h, s, n, update):
     for b, t in enumerate(vecs):
         p = _ptr(builder, col, LANES * b, t)
         v = builder.load(p, align=8)
-        if update:
-            prod = builder.fmul(builder.load(_ptr(builder, a, LANES * b, t), align=8),
-                                _splat(builder, fj, t))
-            v = builder.call(fmas[t.count], [svs[t.count], v, builder.fneg(prod)])
-            builder.store(v, p, align=8)
+        prod = builder.fmul(builder.load(_ptr(builder, a, LANES * b, t), align=8),
+                            _splat(builder, fj, t))
+        v = builder.call(fmas[t.count], [svs[t.count], v, builder.fneg(prod)])
+        builder.store(v, p, align=8)
         xv = builder.load(_ptr(builder, x, LANES * b, t), align=8)
         if t.count == LANES:
             acc = builder.call(fmas[LANES], [v, xv, acc])
@@ -126,20 +126,20 @@ def _sweep_ir(builder, F, f, a, x, h, s, n, update):
 
 
 @intrinsic
-def _sweep_n(typingctx, F, f, a, x, h, s, update, NP):
-    """:func:`_sweep` (``update``) or :func:`_fresh` for a compile-time n = NP, in
+def _sweep_n(typingctx, F, f, a, x, h, s, NP):
+    """:func:`_sweep` for a compile-time n = NP, in
     vectors of LANES doubles: numba does not SLP-vectorise the unrolled loops of a
     constant n. Returns q = fᵀf of the new f."""
-    if not isinstance(NP, types.IntegerLiteral) or not isinstance(update, types.BooleanLiteral):
+    if not isinstance(NP, types.IntegerLiteral):
         return None
-    n, upd = NP.literal_value, update.literal_value
+    n = NP.literal_value
 
     def codegen(context, builder, signature, args):
         data = [context.make_array(signature.args[k])(context, builder, args[k]).data
                 for k in range(5)]
-        return _sweep_ir(builder, *data, args[5], n, upd)
+        return _sweep_ir(builder, *data, args[5], n)
 
-    return types.float64(F, f, a, x, h, s, update, NP), codegen
+    return types.float64(F, f, a, x, h, s, NP), codegen
 
 
 @njit(**NJIT_INLINE)
@@ -163,20 +163,6 @@ def _coldot(F, j, x, NP):
     return ((a0 + a4) + (a2 + a6)) + ((a1 + a5) + (a3 + a7))
 
 
-def _fresh(F, phi, f, h, NP):
-    """f = Fᵀφ, h = F f: the arithmetic of the sweep, for a first or resumed sample."""
-    for i in range(NP):
-        h[i] = 0.0
-    q = 0.0
-    for j in range(NP):
-        fj = _coldot(F, j, phi, NP)
-        f[j] = fj
-        q += fj * fj
-        for i in range(NP):
-            h[i] += F[i, j] * fj
-    return q
-
-
 def _sweep(F, f, h, a, s, nxt, NP):
     """F ← s F − a fᵀ column by column; f, h ← those of the next regressor; returns fᵀf."""
     for i in range(NP):
@@ -194,23 +180,13 @@ def _sweep(F, f, h, a, s, nxt, NP):
     return q
 
 
-@overload(_fresh, inline="always", prefer_literal=True, jit_options=_OPTS)
-def _fresh_compiled(F, phi, f, h, NP):
-    if not isinstance(NP, types.IntegerLiteral):
-        return _fresh
-
-    def impl(F, phi, f, h, NP):
-        return _sweep_n(F, f, f, phi, h, 1.0, False, NP)
-    return impl
-
-
 @overload(_sweep, inline="always", prefer_literal=True, jit_options=_OPTS)
 def _sweep_compiled(F, f, h, a, s, nxt, NP):
     if not isinstance(NP, types.IntegerLiteral):
         return _sweep
 
     def impl(F, f, h, a, s, nxt, NP):
-        return _sweep_n(F, f, a, nxt, h, s, True, NP)
+        return _sweep_n(F, f, a, nxt, h, s, NP)
     return impl
 
 
@@ -297,30 +273,35 @@ def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
             ok &= Y[k, j] - Y[k, j] == 0.0
         wk = w[k]
         inside = True
-        if ok and wk > 0.0:
-            if not fresh:
-                q = _fresh(F, phi, f, h, NP)
+        check = False  # evaluate the rule after this sample
+        if ok:
             _errors(theta, phi, Y, k, e, E, NP, p)
+        if ok and wk > 0.0:
+            if not fresh:  # f, h, q of φ: the sweep with F unchanged (s = 1, a = f = 0)
+                for i in range(NP):
+                    a[i] = 0.0
+                    f[i] = 0.0
+                q = _sweep(F, f, h, a, 1.0, phi, NP)
             s, rd = _gain(q, h, a, theta, e, lam[k], wk, NP, p)
             q = _sweep(F, f, h, a, s, Phi[k + 1] if k + 1 < N else phi, NP)
             fresh = True
             lo *= (rd - tau) * (1.0 - tau) / lam[k]
             hi *= (1.0 + tau) / lam[k]
-            if bad < 0 and not (lo > FLOOR and hi * (1.0 + tau) < dthr and hi < CEIL):
-                inside, lo, hi = _exact(F, rn, dthr, tau, NP)
+            check = bad < 0 and not (lo > FLOOR and hi * (1.0 + tau) < dthr and hi < CEIL)
         elif ok:  # weight 0: the sample only advances the forgetting
-            _errors(theta, phi, Y, k, e, E, NP, p)
             s = 1.0 / np.sqrt(lam[k])
             for j in range(NP):
                 for i in range(NP):
                     F[i, j] *= s
-            inside, lo, hi = _exact(F, rn, dthr, tau, NP)
+            check = True
             fresh = False
         else:
             skipped[k] = True
             for j in range(p):
                 E[k, j] = np.nan
             fresh = False
+        if check:
+            inside, lo, hi = _exact(F, rn, dthr, tau, NP)
         if bad < 0 and not inside:
             bad = k
         if store:
