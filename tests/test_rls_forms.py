@@ -337,12 +337,14 @@ def test_sqrt_monitor_code_is_the_exact_rule_sample_by_sample(n, seed):
 
 def test_auto_switch_rule_when_a_threshold_is_set(monkeypatch):
     # the rule of resolve_form as documented in estimators/_rlsforms.py: "auto" is the
-    # square-root form strictly above AUTO_SQRT_ABOVE, except with a forgetting strategy /
+    # square-root form strictly above AUTO_SQRT_ABOVE up to FORMS_SPECIALISED_N, except with a forgetting strategy /
     # P_max (not fast) or an exact diffuse start (both need the U-D factors)
     from adaptid.estimators import _rlsforms as rf
     monkeypatch.setattr(rf, "AUTO_SQRT_ABOVE", 15)
     assert rf.resolve_form("auto", 16, True) == "sqrt"
     assert rf.resolve_form("auto", 15, True) == "ud"
+    assert rf.resolve_form("auto", rf.FORMS_SPECIALISED_N, True) == "sqrt"
+    assert rf.resolve_form("auto", rf.FORMS_SPECIALISED_N + 1, True) == "ud"  # both generic
     assert rf.resolve_form("auto", 40, True, diffuse=True) == "ud"
     assert rf.resolve_form("auto", 40, False) == "ud"
     assert rf.resolve_form("ud", 40, True) == "ud"

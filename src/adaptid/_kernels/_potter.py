@@ -180,10 +180,17 @@ def _sweep(F, f, h, a, s, nxt, NP):
     return q
 
 
+#: the sweep for a run-time n: compiled once and called (an O(n²) body), not inlined
+#: at the loop's two call sites
+_sweep_loops = njit(**NJIT)(_sweep)
+
+
 @overload(_sweep, inline="always", prefer_literal=True, jit_options=_OPTS)
 def _sweep_compiled(F, f, h, a, s, nxt, NP):
     if not isinstance(NP, types.IntegerLiteral):
-        return _sweep
+        def loops(F, f, h, a, s, nxt, NP):
+            return _sweep_loops(F, f, h, a, s, nxt, NP)
+        return loops
 
     def impl(F, f, h, a, s, nxt, NP):
         return _sweep_n(F, f, a, nxt, h, s, NP)

@@ -37,7 +37,7 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
     the sliding window's add-then-remove of Yamamoto (1991, eqs. 62–65), the
     Kalman time update of Ljung & Söderström (1983, eq. 2.114). An RLS in the
     square-root or covariance form (``form="auto"`` is the square root for
-    n ≥ 16) is exported from its state converted to U-D, exact up to rounding:
+    16 ≤ n ≤ 64) is exported from its state converted to U-D, exact up to rounding:
     the C code then continues the U-D recursion.
 
     .. math::

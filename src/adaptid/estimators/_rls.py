@@ -81,8 +81,8 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
         P = S Sᵀ (Potter), or P itself,
         exactly symmetric, with a definiteness monitor that repairs P
         (:class:`~adaptid.DefinitenessLossWarning`). "auto" (default): U-D for
-        n ≤ 15 and with ``P0="diffuse"``, the square root above (the faster
-        form there, ``benchmarks/bench_rls_forms.py``); ``run(stats=True)``
+        n ≤ 15, for n > 64 and with ``P0="diffuse"``, the square root for
+        16 ≤ n ≤ 64 (the faster form at each n, ``benchmarks/bench_rls_forms.py``); ``run(stats=True)``
         continues a square-root estimator in U-D form. The C export (:meth:`to_c`) runs U-D. See
         :mod:`adaptid.estimators._rlsforms`; ``RLS.from_state(state, form=...)``
         converts a state between forms.

@@ -9,8 +9,9 @@ exponential (no strategy, no ``P_max``; those run on the U-D factors only):
 * ``"covariance"`` — P itself, exactly symmetric (MATLAB ``recursiveLS``
   arithmetic), with a definiteness monitor that repairs P,
   :mod:`adaptid._kernels._covariance`;
-* ``"auto"`` (default) — U-D for n ≤ :data:`AUTO_SQRT_ABOVE` (15) and for an
-  exact diffuse start, the square-root form above (the faster one there,
+* ``"auto"`` (default) — U-D for n ≤ :data:`AUTO_SQRT_ABOVE` (15), for n above
+  :data:`FORMS_SPECIALISED_N` (64) and for an exact diffuse start, the
+  square-root form in between (the faster one at each n,
   ``benchmarks/bench_rls_forms.py``).
 
 The state vector keeps one length for all forms, ``[θ | n·n block | n]``: U by
@@ -44,7 +45,10 @@ FORMS = ("auto", "ud", "sqrt", "covariance")
 #: 2 shared cores, quiet machine): since the vectorised Potter sweep the square-root
 #: form is the faster at n = 16, 32, 64 (1.86/0.63/0.61 x against U-D's
 #: 1.09/0.38/0.35 x); sqrt/U-D is 1.08, 1.01, 0.96 at n = 10, 12, 14 (a tie) and
-#: 1.34, 1.60 at n = 20, 24: the switch is at n >= 16. An exact diffuse start
+#: 1.34, 1.60 at n = 20, 24: the switch is at n >= 16. Above FORMS_SPECIALISED_N both
+#: forms are the run-time-n kernels, and there U-D is the faster (n = 65: 0.65 against
+#: 0.42 M updates/s, n = 100: 0.26 against 0.20) and compiles in 1.8-1.9 s against
+#: 2.7-3.2 s: "auto" is U-D again from n = 65 on. An exact diffuse start
 #: (``P0="diffuse"``) stays in U-D (it hands over to U-D factors); ``run(stats=True)``
 #: continues an estimator in U-D form (:meth:`FormsMixin._before_stats`).
 AUTO_SQRT_ABOVE = 15
@@ -60,7 +64,7 @@ def resolve_form(form, n, fast, diffuse=False):
                               "(they act on the U-D factors)", form)
         return "ud"
     if form == "auto":
-        big = AUTO_SQRT_ABOVE is not None and n > AUTO_SQRT_ABOVE
+        big = AUTO_SQRT_ABOVE is not None and AUTO_SQRT_ABOVE < n <= FORMS_SPECIALISED_N
         return "sqrt" if big and not diffuse else "ud"
     return form
 
