@@ -28,6 +28,13 @@ gigabyte of freshly zeroed ones (as bench_rls.py's chunked timings). Segments
 cannot continue a state, so ``run_segments`` takes 10 calls on 260-sample
 pieces (B segments per call).
 
+And a floor that no kernel of this layout can beat: a numba loop over the
+streams (parallel, as adaptid's) that only reads each sample's φ and y and
+writes ε = y − Σφᵢ into a fresh (B, N) array per call — the data movement of
+``run_batched(store=False)`` without its arithmetic ("memory floor"). Its
+"per core" figure is the ceiling of the structure-of-arrays kernels on this
+machine's memory bandwidth.
+
 Timings are interleaved (each round runs every contender once, shuffled); the
 table gives the median updates/s over the rounds and the ratio "per core":
 adaptid's updates/s divided by the numba threads it used, over one C thread's.
@@ -117,6 +124,28 @@ def ad_segments(P2, y2, off):
     return time.perf_counter() - t, res.theta
 
 
+def floor_kernel():
+    """The memory floor: read φ and y, write ε = y − Σφᵢ (no RLS arithmetic)."""
+    import numba
+
+    @numba.njit(parallel=True, fastmath=True)
+    def floor(Phi, y, E):
+        for b in numba.prange(Phi.shape[0]):
+            for k in range(Phi.shape[1]):
+                s = y[b, k]
+                for i in range(Phi.shape[2]):
+                    s -= Phi[b, k, i]
+                E[b, k] = s
+    return floor
+
+
+def floor_run(kernel, Phi, y):
+    t = time.perf_counter()
+    for _ in range(CALLS):
+        kernel(Phi, y, np.empty(y.shape))
+    return time.perf_counter() - t, None
+
+
 def old_path(fn):
     """Run fn with the engine's structure-of-arrays dispatch switched off."""
     from adaptid._kernels import _soa
@@ -148,6 +177,8 @@ def cases_for(n, B, lib, rng):
         "segments random lengths": lambda: ad_segments(P2, y2, off_r),
         "segments random lengths old": lambda: old_path(lambda: ad_segments(P2, y2, off_r)),
     }
+    floor = floor_kernel()
+    cases["memory floor (no arithmetic)"] = lambda: floor_run(floor, Phi, y)
     if lib is not None:
         for v in VARIANTS:
             cases[f"C {v}_n{n}"] = (lambda v=v: c_run(lib, v, Phi, y))
@@ -157,6 +188,7 @@ def cases_for(n, B, lib, rng):
 def check(cases, B):
     """Old and new kernels bit for bit; C within 1e-8 relative (final θ)."""
     out = {k: fn()[1] for k, fn in cases.items()}
+    out = {k: v for k, v in out.items() if v is not None}  # the memory floor has no θ
     for k in list(out):
         if k.endswith(" old"):
             assert np.array_equal(out[k], out[k[:-4]]), k
