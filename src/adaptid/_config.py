@@ -19,7 +19,10 @@ otherwise nothing is cached or loaded from disk and one
 :class:`~adaptid.CompilationCacheWarning` says why (a read-only install with
 an unwritable HOME then works, compiling in every process). A damaged cache
 file (truncated ``.nbc``, garbage ``.nbi``) is treated as a miss: the kernel
-is recompiled and the entry rewritten (:func:`njit`).
+is recompiled and the entry rewritten (:func:`njit`). Loading a cached kernel
+starts numba's runtime only, not its compiler's registries
+(:func:`_start_runtime`): a process whose kernels all come from the cache
+does not pay for them.
 """
 
 import os
