@@ -2,8 +2,9 @@
 
 Builds the block loop of ``adaptid._kernels._soa.rls_soa_batched`` from its own
 pieces four times: complete; without the lane steps (the gather of Φ, y into
-lane-major scratch and the scatter of ε, skipped); the steps only (on a fixed
-chunk, no gather or scatter); the scatter only. Prints the best of 5 of each.
+lane-major scratch and the scatter of ε, skipped); the steps only (on the
+block's first chunk of samples, gathered once and stepped on again and again:
+no gather or scatter in the loop); the scatter only. Prints the best of 5 of each.
 A diagnostic of issue 19 point 3, not a speed claim::
 
     NUMBA_NUM_THREADS=1 python benchmarks/soa_breakdown.py
@@ -30,11 +31,10 @@ def make(do_gather, do_steps, do_scatter):
             for l in range(LANES):
                 S._lane_load(Sx[s0 + min(l, nl - 1)], U, D, th, bad, l, NP)
             S._fill_constant(Lc, Wc, Rc, il0, 1.0, r0)
-            for t in range(CHUNK):
-                for l in range(LANES):
-                    Yc[0, t, l] = 0.0
-                    for i in range(NP):
-                        X[t, i, l] = 0.1
+            # the block's first chunk of real samples, which the variants without the
+            # gather step on again and again (the estimator stays well conditioned:
+            # no overflow, no subnormals, as on the real data)
+            S._batched_gather(Phi, Y, lam, w, s0, nl, 0, CHUNK, X, Yc, Lc, Wc, Rc, il0, r0, NP)
             for k0 in range(0, N, CHUNK):
                 T = min(CHUNK, N - k0)
                 if do_gather:
