@@ -55,7 +55,7 @@ from numba.extending import overload
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import _segment_start, _views
-from ._covsweep import VECTOR_SWEEP_MAX, cov_sweep_n
+from ._covsweep import VECTOR_SWEEP_MAX, cov_sweep_n, quad_n, theta_step, vector_quad
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
 
@@ -123,7 +123,8 @@ def _matvec(P, Phi, k, u, NP):
 @njit(**NJIT_INLINE)
 def _sweep(P, c, u, s, il, Phi, kn, bd, NP):
     """P ← (P − c cᵀ·s)/λ row by row (s = 1/d when n ≤ SQRT_FREE_N, else c is
-    already u/√d), u ← P φ_next; returns (diag in (0, dthr), diag > 0).
+    already u/√d), u ← P φ_next; returns (diag in (0, dthr), diag > 0, NaN: the next
+    sample's φᵀu is summed by the caller).
 
     The diagonal is checked on its bits (int64): for a double x and a
     positive threshold with bits ``bd``, ``0 < x < thr`` ⇔ ``0 < bits(x) < bd``
@@ -150,7 +151,7 @@ def _sweep(P, c, u, s, il, Phi, kn, bd, NP):
         b = Pb[j, j]
         lo = min(lo, b)
         hi = max(hi, b)
-    return (lo > 0) & (hi < bd), (lo > 0) & (hi <= BINF)
+    return (lo > 0) & (hi < bd), (lo > 0) & (hi <= BINF), np.nan
 
 
 @njit(**NJIT_INLINE)
@@ -191,7 +192,11 @@ def _finite_sample(Phi, Y, k, NP, p):
 @njit(**NJIT_INLINE)
 def _quad(Phi, k, u, off, stride, NP):
     """Σᵢ φᵢ u[off + i·stride] (φᵀu: off 0, stride 1); from n = 8 on in 8 partial
-    sums added as a tree (a short chain)."""
+    sums added as a tree (a short chain). For a compile-time 8 ≤ n ≤
+    ``VECTOR_SWEEP_MAX`` and stride 1, the same lanes and tree as LLVM vector code
+    (:func:`._covsweep.quad_n`; numba does not SLP-vectorise the unrolled loops)."""
+    if vector_quad(NP, stride):  # a compile-time constant: one branch is compiled
+        return quad_n(Phi, k, u, off, NP)
     if NP < 8:
         q = 0.0
         for i in range(NP):
@@ -244,14 +249,11 @@ def _local_copies(S, dthr, NP, p):
 
 
 @njit(**NJIT_INLINE)
-def _measure(P, theta, u, c, e, Phi, k, kn, q, r, il, bd, NP, p):
+def _measure(P, theta, tflat, u, c, e, Phi, k, kn, q, r, il, bd, NP, p):
     """The update by a sample of weight > 0 (u = Pφₖ, q = φᵀu given); the fused sweep."""
     d = r + q
     idd = 1.0 / d
-    for i in range(NP):
-        g = u[i] * idd
-        for j in range(p):
-            theta[i, j] += g * e[j]
+    theta_step(theta, tflat, u, idd, e, NP, p)
     if NP <= SQRT_FREE_N:
         for i in range(NP):
             c[i] = u[i]
@@ -274,8 +276,8 @@ def _sweep_scaled_compiled(P, c, u, sq, il, Phi, kn, bd, NP):
         return _sweep_scaled
 
     def impl(P, c, u, sq, il, Phi, kn, bd, NP):
-        lo, hi = cov_sweep_n(P, u, sq, il, Phi, kn, NP)
-        return (lo > 0) & (hi < bd), (lo > 0) & (hi <= BINF)
+        lo, hi, qn = cov_sweep_n(P, u, sq, il, Phi, kn, NP)
+        return (lo > 0) & (hi < bd), (lo > 0) & (hi <= BINF), qn
     return impl
 
 
@@ -288,6 +290,7 @@ def _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
     N = Phi.shape[0]
     store = Th.shape[0] == N
     fresh = False  # u = P Phi[k]
+    qn = np.nan  # and φₖᵀu, when the vector sweep formed it (u still in its registers)
     bad = -1
     repaired = -1
     lprev = np.nan
@@ -303,7 +306,8 @@ def _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
         if ok and wk > 0.0:
             if not fresh:
                 _matvec(P, Phi, k, u, NP)
-            q = _quad(Phi, k, u, 0, 1, NP)
+            # the sweep's q is quad_n's, bit for bit (a compile-time choice of branch)
+            q = qn if fresh and vector_quad(NP, 1) else _quad(Phi, k, u, 0, 1, NP)
             if not q > 0.0 and _nonzero(Phi, k, NP):
                 cov_repair(P)
                 repaired = k if repaired < 0 else repaired
@@ -311,7 +315,7 @@ def _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
                 q = _quad(Phi, k, u, 0, 1, NP)
             for j in range(p):
                 E[k, j] = e[j]
-            inside, pos = _measure(P, theta, u, c, e, Phi, k, k + 1 if k + 1 < N else k, q,
+            inside, pos, qn = _measure(P, theta, tflat, u, c, e, Phi, k, k + 1 if k + 1 < N else k, q,
                                    lk if wk == 1.0 else lk / wk, il, bd, NP, p)
             fresh = True
             if not pos:

@@ -26,7 +26,9 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from ._vecir import LANES, _ptr, _splat, loop_end, store_vecs, vector_blocks, vector_fmas
+from .._config import NJIT_INLINE, njit
+from ._vecir import LANES, _lanes, _ptr, _splat, loop_end, store_vecs, vector_blocks, \
+    vector_fmas
 
 
 #: the largest n swept by this code; above it the scalar loops of _covariance,
@@ -35,9 +37,21 @@ from ._vecir import LANES, _ptr, _splat, loop_end, store_vecs, vector_blocks, ve
 VECTOR_SWEEP_MAX = 32
 
 
+def _theta_step_ir(builder, th, u, idd, e, vecs, fmas):
+    """θ ← θ + (u·(1/d))·ε for p = 1, in vectors: per entry ``fma(uᵢ·idd, ε, θᵢ)``,
+    the scalar loop's operations (its contraction under ``fastmath={"contract"}``)."""
+    for b, t in enumerate(vecs):
+        g = builder.fmul(builder.load(_ptr(builder, u, LANES * b, t), align=8),
+                         _splat(builder, idd, t))
+        p = _ptr(builder, th, LANES * b, t)
+        builder.store(builder.call(fmas[t.count], [g, _splat(builder, e, t),
+                                                   builder.load(p, align=8)]), p, align=8)
+
+
 def _cov_sweep_ir(builder, P, u, x, s, il, n):
     """The IR of the sweep (module docstring); returns (lo, hi), the smallest and the
-    largest bits (signed int64) of the new diagonal."""
+    largest bits (signed int64) of the new diagonal, and q = φₖ₊₁ᵀu of the new u
+    with :func:`quad_n`'s arithmetic (NaN for n < 8)."""
     i64 = ir.IntType(64)
     vecs = vector_blocks(n)
     fmas = vector_fmas(builder, vecs)
@@ -63,6 +77,11 @@ def _cov_sweep_ir(builder, P, u, x, s, il, n):
     loop_end(builder, pre, loop, done, j, n,
               [(ph, ir.Constant(t, [0.0] * t.count), v) for ph, t, v in zip(acc, vecs, new)])
     store_vecs(builder, u, vecs, new)
+    if n >= LANES:  # the next sample's φᵀu from the registers, as quad_n sums it
+        q = _quad_ir(builder, new, [builder.load(_ptr(builder, x, LANES * b, t), align=8)
+                                    for b, t in enumerate(vecs)], vecs, fmas)
+    else:
+        q = ir.Constant(ir.DoubleType(), float("nan"))
     # the bits of the new diagonal, read once the sweep is done
     lo, hi = ir.Constant(i64, 0x7FF0000000000000), ir.Constant(i64, 0)
     for i in range(n):
@@ -70,18 +89,107 @@ def _cov_sweep_ir(builder, P, u, x, s, il, n):
                                             i64.as_pointer()))
         lo = builder.select(builder.icmp_signed("<", bits, lo), bits, lo)
         hi = builder.select(builder.icmp_signed(">", bits, hi), bits, hi)
-    return lo, hi
+    return lo, hi, q
+
+
+def _quad_ir(builder, us, xs, vecs, fmas):
+    """Σᵢ xᵢuᵢ in eight lanes: a product, then fused multiply-adds, the tree
+    ((L0 + L4) + (L2 + L6)) + ((L1 + L5) + (L3 + L7)), the n % 8 rest added one by one."""
+    dbl = ir.DoubleType()
+    full = [b for b, t in enumerate(vecs) if t.count == LANES]
+    acc = builder.fmul(xs[0], us[0])
+    for b in full[1:]:
+        acc = builder.call(fmas[LANES], [xs[b], us[b], acc])
+    L = _lanes(builder, acc)
+    add = builder.fadd
+    q = add(add(add(L[0], L[4]), add(L[2], L[6])), add(add(L[1], L[5]), add(L[3], L[7])))
+    if len(full) < len(vecs):
+        fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(dbl, [dbl] * 3),
+                                             "llvm.fma.f64")
+        for xi, ui in zip(_lanes(builder, xs[-1]), _lanes(builder, us[-1])):
+            q = builder.call(fma, [xi, ui, q])
+    return q
+
+
+def _vector_quad(NP, stride):
+    """Whether :func:`quad_n` sums for these (compile-time) n and stride."""
+    return (isinstance(NP, types.IntegerLiteral) and LANES <= NP.literal_value <= VECTOR_SWEEP_MAX
+            and isinstance(stride, types.IntegerLiteral) and stride.literal_value == 1)
+
+
+@intrinsic(prefer_literal=True)
+def vector_quad(typingctx, NP, stride):
+    """A compile-time constant: :func:`quad_n` sums φᵀu for this n and stride."""
+    flag = _vector_quad(NP, stride)
+
+    def codegen(context, builder, signature, args):
+        return context.get_constant(types.boolean, flag)
+    return types.boolean(NP, stride), codegen
+
+
+@intrinsic(prefer_literal=True)
+def quad_n(typingctx, Phi, k, u, off, NP):
+    """φₖᵀu[off:off + n] for a compile-time 8 ≤ n = NP ≤ ``VECTOR_SWEEP_MAX``, in the
+    lanes of :func:`_quad_ir`; NaN for any other n (guarded by :func:`vector_quad`)."""
+    ok = _vector_quad(NP, types.IntegerLiteral(1))
+    n = NP.literal_value if ok else 0
+
+    def codegen(context, builder, signature, args):
+        if not ok:
+            return context.get_constant(types.float64, float("nan"))
+        phi = context.make_array(signature.args[0])(context, builder, args[0])
+        k_ = context.cast(builder, args[1], signature.args[1], types.intp)
+        x = cgutils.get_item_pointer(context, builder, signature.args[0], phi,
+                                     [k_, context.get_constant(types.intp, 0)])
+        ud = context.make_array(signature.args[2])(context, builder, args[2]).data
+        ud = builder.gep(ud, [context.cast(builder, args[3], signature.args[3], types.intp)])
+        vecs = vector_blocks(n)
+        us = [builder.load(_ptr(builder, ud, LANES * b, t), align=8) for b, t in enumerate(vecs)]
+        xs = [builder.load(_ptr(builder, x, LANES * b, t), align=8) for b, t in enumerate(vecs)]
+        return _quad_ir(builder, us, xs, vecs, vector_fmas(builder, vecs))
+    return types.float64(Phi, k, u, off, NP), codegen
+
+
+@intrinsic(prefer_literal=True)
+def cov_theta_step_n(typingctx, th, u, idd, e, NP):
+    """θ (n, flat) ← θ + (u/d)·ε for one output in vectors (the gain step of
+    :func:`theta_step`); no code unless :func:`vector_quad` holds for n."""
+    ok = _vector_quad(NP, types.IntegerLiteral(1))
+    n = NP.literal_value if ok else 0
+
+    def codegen(context, builder, signature, args):
+        if ok:
+            thd, ud = (context.make_array(signature.args[k])(context, builder, args[k]).data
+                       for k in range(2))
+            vecs = vector_blocks(n)
+            _theta_step_ir(builder, thd, ud, args[2], args[3], vecs, vector_fmas(builder, vecs))
+        return context.get_dummy_value()
+    return types.none(th, u, idd, e, NP), codegen
+
+
+@njit(**NJIT_INLINE)
+def theta_step(theta, tflat, u, idd, e, NP, p):
+    """Θ ← Θ + (u/d) εᵀ (``tflat``: Θ's storage); for one output and a compile-time
+    8 ≤ n ≤ ``VECTOR_SWEEP_MAX`` as LLVM vector code (numba does not SLP-vectorise
+    the unrolled loop), the same operations."""
+    if vector_quad(NP, p):  # a compile-time constant: one branch is compiled
+        cov_theta_step_n(tflat, u, idd, e[0], NP)
+    else:
+        for i in range(NP):
+            g = u[i] * idd
+            for j in range(p):
+                theta[i, j] += g * e[j]
 
 
 @intrinsic
 def cov_sweep_n(typingctx, P, u, s, il, Phi, kn, NP):
     """The sweep for a compile-time n = NP ≤ ``VECTOR_SWEEP_MAX`` over P (n, n, C
     order), u (n), the next regressor ``Phi[kn]``; returns the (lo, hi) bits of
-    the new diagonal."""
+    the new diagonal and q = φᵀu of ``Phi[kn]`` and the new u (NaN for n < 8)."""
     if not isinstance(NP, types.IntegerLiteral) or not 0 < NP.literal_value <= VECTOR_SWEEP_MAX:
         return None
     n = NP.literal_value
-    ret = types.UniTuple(types.int64, 2)
+    ret = types.Tuple((types.int64, types.int64, types.float64))
 
     def codegen(context, builder, signature, args):
         Pd, ud = (context.make_array(signature.args[k])(context, builder, args[k]).data
@@ -90,6 +198,6 @@ def cov_sweep_n(typingctx, P, u, s, il, Phi, kn, NP):
         kn_ = context.cast(builder, args[5], signature.args[5], types.intp)
         x = cgutils.get_item_pointer(context, builder, signature.args[4], phi,
                                      [kn_, context.get_constant(types.intp, 0)])
-        lo, hi = _cov_sweep_ir(builder, Pd, ud, x, args[2], args[3], n)
-        return context.make_tuple(builder, ret, [lo, hi])
+        lo, hi, q = _cov_sweep_ir(builder, Pd, ud, x, args[2], args[3], n)
+        return context.make_tuple(builder, ret, [lo, hi, q])
     return ret(P, u, s, il, Phi, kn, NP), codegen
