@@ -367,3 +367,37 @@ def test_auto_square_root_estimator_runs_stats_in_ud_form(rng):
     np.testing.assert_allclose(got.stats.sigma2, ref.stats.sigma2, rtol=1e-12, equal_nan=True)
     with pytest.raises(ValueError, match="stats"):
         adaptid.RLS(n, forgetting=0.99, form="covariance").run(Phi, y, stats=True)
+
+
+NO_JIT_RUN = """
+import json, sys, numpy as np, adaptid
+n, form = int(sys.argv[1]), sys.argv[2]
+rng = np.random.default_rng(n)
+Phi = rng.standard_normal((40, n)); y = Phi @ np.arange(1.0, n + 1.0) + 0.1 * rng.standard_normal(40)
+est = adaptid.RLS(n, forgetting=0.99, form=form)
+est.run(Phi, y)
+print(json.dumps(list(est.theta)))
+"""
+
+
+@pytest.mark.parametrize("n", [3, 16])
+@pytest.mark.parametrize("form", ["ud", "sqrt", "covariance"])
+def test_every_form_runs_as_plain_python(n, form):
+    """With NUMBA_DISABLE_JIT=1 (coverage of the kernels' source) every form runs the
+    Python source of its kernel, whose compiled versions use vector IR for some n:
+    same θ as the compiled run up to rounding (no FMA contraction in Python)."""
+    import json
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    proc = subprocess.run([sys.executable, "-c", NO_JIT_RUN, str(n), form], env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    plain = np.array(json.loads(proc.stdout.splitlines()[-1]))
+    rng = np.random.default_rng(n)
+    Phi = rng.standard_normal((40, n))
+    y = Phi @ np.arange(1.0, n + 1.0) + 0.1 * rng.standard_normal(40)
+    est = adaptid.RLS(n, forgetting=0.99, form=form)
+    est.run(Phi, y)
+    np.testing.assert_allclose(plain, est.theta, rtol=1e-9, atol=1e-12)

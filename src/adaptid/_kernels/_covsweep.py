@@ -24,7 +24,7 @@ contractions numba's ``fastmath={"contract"}`` gives the scalar loop).
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
 from .._config import NJIT_INLINE, njit
 from ._vecir import LANES, _lanes, _ptr, _splat, loop_end, store_vecs, vector_blocks, \
@@ -117,20 +117,40 @@ def _vector_quad(NP, stride):
             and isinstance(stride, types.IntegerLiteral) and stride.literal_value == 1)
 
 
-@intrinsic(prefer_literal=True)
-def vector_quad(typingctx, NP, stride):
-    """A compile-time constant: :func:`quad_n` sums φᵀu for this n and stride."""
+def vector_quad(NP, stride):  # pragma: no cover - pure Python (NUMBA_DISABLE_JIT=1)
+    """Whether :func:`quad_n` and :func:`cov_theta_step_n` run as vector code for this
+    n and stride (one output): a compile-time constant in compiled code; False in
+    pure Python, which takes the loops."""
+    return False
+
+
+@overload(vector_quad, inline="always", prefer_literal=True)
+def _vector_quad_compiled(NP, stride):
     flag = _vector_quad(NP, stride)
+    return lambda NP, stride: flag
 
-    def codegen(context, builder, signature, args):
-        return context.get_constant(types.boolean, flag)
-    return types.boolean(NP, stride), codegen
+
+def quad_n(Phi, k, u, off, NP):  # pragma: no cover - pure Python: not reached
+    """φₖᵀu[off:off + n] in the lanes and tree of :func:`_quad_ir` (compiled code:
+    LLVM vector code for a compile-time 8 ≤ n ≤ ``VECTOR_SWEEP_MAX``; NaN for any
+    other n, a branch that :func:`vector_quad` rules out)."""
+    a = [Phi[k, m] * u[off + m] for m in range(LANES)]
+    top = NP - NP % LANES
+    for i in range(LANES, top, LANES):
+        a = [a[m] + Phi[k, i + m] * u[off + i + m] for m in range(LANES)]
+    q = ((a[0] + a[4]) + (a[2] + a[6])) + ((a[1] + a[5]) + (a[3] + a[7]))
+    for i in range(top, NP):
+        q += Phi[k, i] * u[off + i]
+    return q
+
+
+@overload(quad_n, inline="always", prefer_literal=True)
+def _quad_n_compiled(Phi, k, u, off, NP):
+    return lambda Phi, k, u, off, NP: _quad_n_ir(Phi, k, u, off, NP)
 
 
 @intrinsic(prefer_literal=True)
-def quad_n(typingctx, Phi, k, u, off, NP):
-    """φₖᵀu[off:off + n] for a compile-time 8 ≤ n = NP ≤ ``VECTOR_SWEEP_MAX``, in the
-    lanes of :func:`_quad_ir`; NaN for any other n (guarded by :func:`vector_quad`)."""
+def _quad_n_ir(typingctx, Phi, k, u, off, NP):
     ok = _vector_quad(NP, types.IntegerLiteral(1))
     n = NP.literal_value if ok else 0
 
@@ -150,10 +170,20 @@ def quad_n(typingctx, Phi, k, u, off, NP):
     return types.float64(Phi, k, u, off, NP), codegen
 
 
+def cov_theta_step_n(th, u, idd, e, NP):  # pragma: no cover - pure Python: not reached
+    """θ (n, flat) ← θ + (u/d)·ε for one output (the gain step of :func:`theta_step`):
+    LLVM vector code in compiled code when :func:`vector_quad` holds for n."""
+    for i in range(NP):
+        th[i] += (u[i] * idd) * e
+
+
+@overload(cov_theta_step_n, inline="always", prefer_literal=True)
+def _cov_theta_step_n_compiled(th, u, idd, e, NP):
+    return lambda th, u, idd, e, NP: _theta_step_n_ir(th, u, idd, e, NP)
+
+
 @intrinsic(prefer_literal=True)
-def cov_theta_step_n(typingctx, th, u, idd, e, NP):
-    """θ (n, flat) ← θ + (u/d)·ε for one output in vectors (the gain step of
-    :func:`theta_step`); no code unless :func:`vector_quad` holds for n."""
+def _theta_step_n_ir(typingctx, th, u, idd, e, NP):
     ok = _vector_quad(NP, types.IntegerLiteral(1))
     n = NP.literal_value if ok else 0
 
