@@ -149,13 +149,17 @@ def _quad_n_compiled(Phi, k, u, off, NP):
     return lambda Phi, k, u, off, NP: _quad_n_ir(Phi, k, u, off, NP)
 
 
+def _vector_n(NP):
+    """n if the helpers here run as vector code for it (:func:`vector_quad`), else 0."""
+    return NP.literal_value if _vector_quad(NP, types.IntegerLiteral(1)) else 0
+
+
 @intrinsic(prefer_literal=True)
 def _quad_n_ir(typingctx, Phi, k, u, off, NP):
-    ok = _vector_quad(NP, types.IntegerLiteral(1))
-    n = NP.literal_value if ok else 0
+    n = _vector_n(NP)
 
     def codegen(context, builder, signature, args):
-        if not ok:
+        if not n:
             return context.get_constant(types.float64, float("nan"))
         phi = context.make_array(signature.args[0])(context, builder, args[0])
         k_ = context.cast(builder, args[1], signature.args[1], types.intp)
@@ -184,15 +188,12 @@ def _cov_theta_step_n_compiled(th, u, idd, e, NP):
 
 @intrinsic(prefer_literal=True)
 def _theta_step_n_ir(typingctx, th, u, idd, e, NP):
-    ok = _vector_quad(NP, types.IntegerLiteral(1))
-    n = NP.literal_value if ok else 0
+    vecs = vector_blocks(_vector_n(NP))  # none: no code
 
     def codegen(context, builder, signature, args):
-        if ok:
-            thd, ud = (context.make_array(signature.args[k])(context, builder, args[k]).data
-                       for k in range(2))
-            vecs = vector_blocks(n)
-            _theta_step_ir(builder, thd, ud, args[2], args[3], vecs, vector_fmas(builder, vecs))
+        thd, ud = (context.make_array(signature.args[k])(context, builder, args[k]).data
+                   for k in range(2))
+        _theta_step_ir(builder, thd, ud, args[2], args[3], vecs, vector_fmas(builder, vecs))
         return context.get_dummy_value()
     return types.none(th, u, idd, e, NP), codegen
 
