@@ -27,8 +27,8 @@ from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
 from .._config import NJIT_INLINE, njit
-from ._vecir import LANES, _lanes, _ptr, _splat, loop_end, store_vecs, vector_blocks, \
-    vector_fmas
+from ._vecir import LANES, _lanes, _ptr, _splat, lane_tree, loop_end, scalar_fma, store_vecs, \
+    vector_blocks, vector_fmas
 
 
 #: the largest n swept by this code; above it the scalar loops of _covariance,
@@ -95,17 +95,13 @@ def _cov_sweep_ir(builder, P, u, x, s, il, n):
 def _quad_ir(builder, us, xs, vecs, fmas):
     """Σᵢ xᵢuᵢ in eight lanes: a product, then fused multiply-adds, the tree
     ((L0 + L4) + (L2 + L6)) + ((L1 + L5) + (L3 + L7)), the n % 8 rest added one by one."""
-    dbl = ir.DoubleType()
     full = [b for b, t in enumerate(vecs) if t.count == LANES]
     acc = builder.fmul(xs[0], us[0])
     for b in full[1:]:
         acc = builder.call(fmas[LANES], [xs[b], us[b], acc])
-    L = _lanes(builder, acc)
-    add = builder.fadd
-    q = add(add(add(L[0], L[4]), add(L[2], L[6])), add(add(L[1], L[5]), add(L[3], L[7])))
+    q = lane_tree(builder, _lanes(builder, acc))
     if len(full) < len(vecs):
-        fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(dbl, [dbl] * 3),
-                                             "llvm.fma.f64")
+        fma = scalar_fma(builder)
         for xi, ui in zip(_lanes(builder, xs[-1]), _lanes(builder, us[-1])):
             q = builder.call(fma, [xi, ui, q])
     return q
@@ -130,18 +126,12 @@ def _vector_quad_compiled(NP, stride):
     return lambda NP, stride: flag
 
 
-def quad_n(Phi, k, u, off, NP):  # pragma: no cover - pure Python: not reached
-    """φₖᵀu[off:off + n] in the lanes and tree of :func:`_quad_ir` (compiled code:
-    LLVM vector code for a compile-time 8 ≤ n ≤ ``VECTOR_SWEEP_MAX``; NaN for any
-    other n, a branch that :func:`vector_quad` rules out)."""
-    a = [Phi[k, m] * u[off + m] for m in range(LANES)]
-    top = NP - NP % LANES
-    for i in range(LANES, top, LANES):
-        a = [a[m] + Phi[k, i + m] * u[off + i + m] for m in range(LANES)]
-    q = ((a[0] + a[4]) + (a[2] + a[6])) + ((a[1] + a[5]) + (a[3] + a[7]))
-    for i in range(top, NP):
-        q += Phi[k, i] * u[off + i]
-    return q
+def quad_n(Phi, k, u, off, NP):  # pragma: no cover - compiled code only
+    """φₖᵀu[off:off + n] in the lanes and tree of :func:`_quad_ir` (LLVM vector code
+    for a compile-time 8 ≤ n ≤ ``VECTOR_SWEEP_MAX``; NaN for any other n, a branch
+    that :func:`vector_quad` rules out). Pure Python never calls it: there
+    :func:`vector_quad` is False and :func:`._covariance._quad` takes its loops."""
+    raise NotImplementedError("quad_n runs in compiled code only")
 
 
 @overload(quad_n, inline="always", prefer_literal=True)
@@ -174,11 +164,10 @@ def _quad_n_ir(typingctx, Phi, k, u, off, NP):
     return types.float64(Phi, k, u, off, NP), codegen
 
 
-def cov_theta_step_n(th, u, idd, e, NP):  # pragma: no cover - pure Python: not reached
-    """θ (n, flat) ← θ + (u/d)·ε for one output (the gain step of :func:`theta_step`):
-    LLVM vector code in compiled code when :func:`vector_quad` holds for n."""
-    for i in range(NP):
-        th[i] += (u[i] * idd) * e
+def cov_theta_step_n(th, u, idd, e, NP):  # pragma: no cover - compiled code only
+    """θ (n, flat) ← θ + (u/d)·ε for one output as LLVM vector code (the gain step of
+    :func:`theta_step`, when :func:`vector_quad` holds; pure Python takes its loops)."""
+    raise NotImplementedError("cov_theta_step_n runs in compiled code only")
 
 
 @overload(cov_theta_step_n, inline="always", prefer_literal=True)

@@ -57,15 +57,14 @@ threshold.
 import numpy as np
 from llvmlite import ir
 from numba import prange, types
-from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
 from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import _segment_start, _views
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
-from ._vecir import LANES, _lanes, _ptr, _splat, loop_end, store_vecs, vector_blocks, \
-    vector_fmas
+from ._vecir import LANES, _lanes, _ptr, _splat, lane_tree, loop_end, scalar_fma, store_vecs, \
+    vector_blocks, vector_fmas
 
 _OPTS = {"fastmath": NJIT["fastmath"]}
 
@@ -86,8 +85,7 @@ def _sweep_ir(builder, F, f, a, x, h, s, n):
     i64, dbl = ir.IntType(64), ir.DoubleType()
     vecs = vector_blocks(n)
     fmas = vector_fmas(builder, vecs)
-    fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(dbl, [dbl] * 3),
-                                         "llvm.fma.f64")
+    fma = scalar_fma(builder)
     pre, loop, done = builder.block, builder.append_basic_block(), builder.append_basic_block()
     svs = {t.count: _splat(builder, s, t) for t in vecs}
     builder.branch(loop)
@@ -112,9 +110,7 @@ def _sweep_ir(builder, F, f, a, x, h, s, n):
             for vi, xi in zip(_lanes(builder, v), _lanes(builder, xv)):
                 acc[0] = builder.call(fma, [vi, xi, acc[0]])
         vals.append(v)
-    L = acc if isinstance(acc, list) else _lanes(builder, acc)
-    add = builder.fadd  # ((L0 + L4) + (L2 + L6)) + ((L1 + L5) + (L3 + L7)), as _coldot
-    fn = add(add(add(L[0], L[4]), add(L[2], L[6])), add(add(L[1], L[5]), add(L[3], L[7])))
+    fn = lane_tree(builder, acc if isinstance(acc, list) else _lanes(builder, acc))  # as _coldot
     builder.store(fn, builder.gep(f, [j]))
     hn = [builder.call(fmas[t.count], [v, _splat(builder, fn, t), hv])
           for t, v, hv in zip(vecs, vals, hs)]

@@ -41,6 +41,20 @@ def vector_fmas(builder, vecs):
         builder.module, ir.FunctionType(t, [t] * 3), f"llvm.fma.v{t.count}f64") for t in vecs}
 
 
+def scalar_fma(builder):
+    """``llvm.fma.f64`` declared in the builder's module."""
+    dbl = ir.DoubleType()
+    return cgutils.get_or_insert_function(builder.module, ir.FunctionType(dbl, [dbl] * 3),
+                                          "llvm.fma.f64")
+
+
+def lane_tree(builder, L):
+    """The sum of eight lanes as the kernels' dot products add them:
+    ((L0 + L4) + (L2 + L6)) + ((L1 + L5) + (L3 + L7))."""
+    add = builder.fadd
+    return add(add(add(L[0], L[4]), add(L[2], L[6])), add(add(L[1], L[5]), add(L[3], L[7])))
+
+
 def loop_end(builder, pre, loop, done, j, n, phis):
     """Close a loop over j = 0..n−1 begun in ``loop`` after ``pre``: branch back while
     j + 1 < n, give j and the ``phis`` (phi, start, next) their incoming values, and
