@@ -7,6 +7,8 @@ P0 = 1e3·I, θ0 = 0), B = 10 000 streams at n = 2, 4, 8:
 * adaptid ``RLS(n, forgetting=0.99).run_batched(Phi (B, N, n), y)`` — the
   structure-of-arrays kernels of ``_kernels/_soa.py`` (the engine's fast path),
   with ``store=False`` and with the default ``store=True``;
+* the same for ``RLS(n, form="covariance")`` (n <= 7: the covariance form's
+  lane kernels, ``_kernels/_soa_cov.py``) — "cov";
 * the same call on the kernels it replaced (``_kernels/_rls.py``, one scalar
   stream per ``prange`` iteration; the engine's dispatch switched off in this
   process) — "old";
@@ -106,18 +108,18 @@ def c_run(lib, variant, Phi, y):
     return time.perf_counter() - t, theta
 
 
-def ad_batched(Phi, y, store):
+def ad_batched(Phi, y, store, form="ud"):
     import adaptid
-    est = adaptid.RLS(Phi.shape[2], forgetting=LAM, P0=P0)
+    est = adaptid.RLS(Phi.shape[2], forgetting=LAM, P0=P0, form=form)
     t = time.perf_counter()
     for _ in range(CALLS):
         est.run_batched(Phi, y, store=store)
     return time.perf_counter() - t, est.theta
 
 
-def ad_segments(P2, y2, off):
+def ad_segments(P2, y2, off, form="ud"):
     import adaptid
-    est = adaptid.RLS(P2.shape[1], forgetting=LAM, P0=P0)
+    est = adaptid.RLS(P2.shape[1], forgetting=LAM, P0=P0, form=form)
     t = time.perf_counter()
     for _ in range(CALLS):
         res = est.run_segments(P2, y2, off)
@@ -177,6 +179,16 @@ def cases_for(n, B, lib, rng):
         "segments random lengths": lambda: ad_segments(P2, y2, off_r),
         "segments random lengths old": lambda: old_path(lambda: ad_segments(P2, y2, off_r)),
     }
+    from adaptid._kernels._soa import COV_MAX_N
+    if n <= COV_MAX_N:  # the covariance form's lane kernels
+        cases.update({
+            "cov batched store=False": lambda: ad_batched(Phi, y, False, "covariance"),
+            "cov batched store=False old":
+                lambda: old_path(lambda: ad_batched(Phi, y, False, "covariance")),
+            "cov segments (B x N)": lambda: ad_segments(P2, y2, off, "covariance"),
+            "cov segments (B x N) old":
+                lambda: old_path(lambda: ad_segments(P2, y2, off, "covariance")),
+        })
     floor = floor_kernel()
     cases["memory floor (no arithmetic)"] = lambda: floor_run(floor, Phi, y)
     if lib is not None:

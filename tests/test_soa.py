@@ -220,3 +220,122 @@ def test_several_outputs_old_path_equals_run():
     for s in range(B):
         tr = est.copy().run(Phi[s], Y[s])
         assert _same(tb.theta[s], tr.theta) and _same(tb.error[s], tr.error)
+
+
+# --- the covariance form's lanes (_kernels/_soa_cov.py) ---
+# n = 3: P's rank-one term with 1/d (n <= SQRT_FREE_N); n = 5: with c = u/sqrt(d)
+@pytest.mark.parametrize("n", [3, 5])
+def test_covariance_batched_equals_run_per_stream(n):
+    rng = np.random.default_rng(20 + n)
+    B, N = 2 * _soa.LANES + 5, 70
+    Phi, y, w, lam = _data(rng, B, N, n)
+    est = adaptid.RLS(n, forgetting=0.98, P0=100.0, nan_policy="skip", form="covariance",
+                      theta0=rng.standard_normal(n))
+    assert est._soa_entry("batched", B) is _soa.cov_soa_batched
+    assert est._soa_entry("batched", B, store=True) is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
+        bat = est.copy()
+        tb = bat.run_batched(Phi, y, weights=w, forgetting=lam, store=False)
+        stored = _routed(est, _soa.cov_soa_batched)
+        ts = stored.run_batched(Phi, y, weights=w, forgetting=lam, store=True)
+        for s in range(B):
+            one = est.copy()
+            tr = one.run(Phi[s], y[s], weights=w[s], forgetting=lam[s])
+            assert _same(ts.theta[s], tr.theta), s
+            assert _same(tb.error[s], tr.error), s
+            assert np.array_equal(tb.skipped[s], tr.skipped), s
+            assert _same(bat.theta[s], one.theta), s
+            assert _same(bat.P[s], one.P), s
+            assert _same(stored.P[s], one.P), s
+    assert tb.skipped.any() and (w == 0).any()
+
+
+def test_covariance_segments_equal_run_per_segment():
+    rng = np.random.default_rng(31)
+    G, n = 4 * _soa.LANES + 3, 3
+    off = _offsets(rng, G)
+    Phi, y, w, _ = _data(rng, 1, int(off[-1]), n)
+    Phi, y, w = Phi[0], y[0], w[0]
+    est = adaptid.RLS(n, forgetting=0.95, P0=1e3, nan_policy="skip", form="covariance")
+    assert est._soa_entry("segments", G) is _soa.cov_soa_segments
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
+        res = est.run_segments(Phi, y, off, weights=w)
+        for g in range(G):
+            a, z = off[g], off[g + 1]
+            one = est.copy().reset()
+            tr = one.run(Phi[a:z], y[a:z], weights=w[a:z])
+            assert _same(res.theta[g], one.theta), g
+            assert _same(res.error[a:z], tr.error), g
+            assert np.array_equal(res.skipped[a:z], tr.skipped), g
+            assert _same(res.P[g], one.P), g
+
+
+def _covariance_codes(est, kernel, what, *args):
+    """Run ``what`` routed to ``kernel`` (None: the scalar kernels); its result and the
+    kernel's per-stream codes."""
+    routed = _routed(est, kernel)
+    codes = []
+    report = routed._report_codes
+
+    def record(c, where):
+        codes.append(np.array(c))
+        return report(c, where)
+
+    routed._report_codes = record
+    if what == "segments":
+        routed._warn_segments = lambda status: codes.append(np.array(status))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = getattr(routed, f"run_{what}")(*args)
+    return routed, out, codes[-1]
+
+
+def test_covariance_lanes_rerun_what_the_scalar_kernel_repairs():
+    # λ = 0.5 and a direction that is never excited: P loses definiteness in floating
+    # point and the scalar kernel repairs it (test_rls_forms); the lanes leave such a
+    # stream to it. Half the streams are of that kind, half are not.
+    # (n = 3 as the tests above: the same compiled kernels)
+    rng = np.random.default_rng(4)
+    B, N, n = 2 * _soa.LANES + 1, 200, 3
+    u = rng.standard_normal((B, N))
+    Phi = np.stack([u, u, rng.standard_normal((B, N))], axis=2)
+    Phi[::2, :, 1] = rng.standard_normal((len(range(0, B, 2)), N))  # excited: no repair
+    y = Phi @ np.array([1.0, 2.0, -1.0])
+    est = adaptid.RLS(n, forgetting=0.5, P0=1.0, windup_threshold=np.inf, form="covariance")
+    runs = [_covariance_codes(est, k, "batched", Phi, y) for k in (None, _soa.cov_soa_batched)]
+    (r0, t0, c0), (r1, t1, c1) = runs
+    assert _same(t0.error, t1.error) and _same(r0.P, r1.P) and _same(r0.theta, r1.theta)
+    assert np.array_equal(c0, c1)
+    repaired = c1 <= -2
+    assert repaired[1::2].all() and not repaired[::2].any()
+    # segments: the same streams back to back
+    off = np.arange(B + 1) * N
+    segs = [_covariance_codes(est, k, "segments", Phi.reshape(-1, n), y.ravel(), off)
+            for k in (None, _soa.cov_soa_segments)]
+    (_, s0, c0), (_, s1, c1) = segs
+    for field in ("theta", "P", "error", "skipped", "sse"):
+        assert _same(getattr(s0, field), getattr(s1, field)), field
+    assert np.array_equal(c0, c1) and (c1[1::2] <= -2).all()
+
+
+def test_covariance_lanes_rerun_a_state_whose_P_is_not_exactly_symmetric():
+    # a state P that is symmetric only to rounding (e.g. written by another tool): the
+    # scalar kernel updates both triangles, the lanes keep one, so that stream is rerun
+    rng = np.random.default_rng(8)
+    B, N, n = _soa.MIN_STREAMS, 40, 3
+    Phi = rng.standard_normal((B, N, n))
+    y = Phi @ rng.standard_normal(n)
+    est = adaptid.RLS(n, forgetting=0.99, P0=10.0, form="covariance")
+    est.run_batched(Phi[:, :20], y[:, :20], store=False)
+    S = est._S
+    k = n + 0 * n + 1  # P[0, 1] of the flat state [θ | P | 0] of stream 3
+    S[3, k] = np.nextafter(S[3, k], np.inf)
+    out = []
+    for kernel in (None, _soa.cov_soa_batched):
+        routed = _routed(est, kernel)
+        tr = routed.run_batched(Phi[:, 20:], y[:, 20:], store=False)
+        out.append((tr.error, routed._S))
+    assert _same(out[0][0], out[1][0]) and _same(out[0][1], out[1][1])
+    assert out[1][1][3, n + 1] != out[1][1][3, n + n]  # it stayed asymmetric (scalar rule)

@@ -14,8 +14,8 @@ arithmetic is that of MATLAB's ``recursiveLS`` and of the C loop
 where :math:`c_i c_j = c_j c_i` bit for bit keeps P exactly symmetric
 (Ljung & Söderström 1983, eq. 2.19, with the symmetric rank-one form). For
 n ≤ ``SQRT_FREE_N`` (4) the rank-one term is formed as
-:math:`(u_i u_j)\cdot(1/d)` instead (as symmetric, bit for bit, and the same
-in exact arithmetic): at these sizes the update is bound by the latency of one
+:math:`(u_i u_j)\cdot(1/d)` instead, in one fused multiply-add with
+:math:`P_{ij}` (as symmetric, bit for bit, and the same in exact arithmetic): at these sizes the update is bound by the latency of one
 sample's chain of dependent operations, and this takes the square root off it.
 The P update of sample k is fused with :math:`u = P\varphi_{k+1}` of the next
 (``u += P[j, :] φⱼ``, an axpy LLVM vectorises); one sweep over P per sample.
@@ -58,6 +58,7 @@ from ._bierman import _segment_start, _views
 from ._covsweep import VECTOR_SWEEP_MAX, cov_sweep_n, quad_n, theta_step, vector_quad
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
+from ._vecir import fma
 
 EPS = 2.220446049250313e-16
 #: the bits of +inf as an int64 (the definiteness monitor compares bits, see _sweep)
@@ -140,7 +141,8 @@ def _sweep(P, c, u, s, il, Phi, kn, bd, NP):
         pj = Phi[kn, j]
         if NP <= SQRT_FREE_N:
             for i in range(NP):
-                v = (P[j, i] - (cj * c[i]) * s) * il
+                # fused whatever LLVM does with the product shared by (j, i) and (i, j)
+                v = fma(-(cj * c[i]), s, P[j, i]) * il
                 P[j, i] = v
                 u[i] += v * pj
         else:

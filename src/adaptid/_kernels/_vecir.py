@@ -4,7 +4,9 @@ vectoriser off, so for a compile-time n these sweeps are written as vector IR.
 """
 
 from llvmlite import ir
+from numba import types
 from numba.core import cgutils
+from numba.extending import intrinsic, overload
 
 #: doubles per vector. Also the fixed lane count of the square-root form's dot
 #: products (part of its arithmetic: keep it).
@@ -72,3 +74,25 @@ def store_vecs(builder, base, vecs, values):
     """Store the vectors ``values`` (of the types ``vecs``) one after the other at base."""
     for b, (t, v) in enumerate(zip(vecs, values)):
         builder.store(v, _ptr(builder, base, LANES * b, t), align=8)
+
+
+def fma(a, b, c):  # pragma: no cover - pure Python (NUMBA_DISABLE_JIT=1): rounded twice
+    """a·b + c rounded once (``llvm.fma.f64``) in compiled code, whatever the
+    contraction heuristics would make of ``a * b + c``: a kernel whose bits another
+    kernel must reproduce writes its fused operations with it."""
+    return a * b + c
+
+
+@intrinsic
+def _fma_ir(typingctx, a, b, c):
+    if not all(t == types.float64 for t in (a, b, c)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.call(scalar_fma(builder), args)
+    return types.float64(a, b, c), codegen
+
+
+@overload(fma, inline="always")
+def _fma(a, b, c):
+    return lambda a, b, c: _fma_ir(a, b, c)

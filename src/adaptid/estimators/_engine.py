@@ -813,17 +813,21 @@ class RecursiveEstimator:
 
     def _soa_entry(self, what, count, store=False):
         """The structure-of-arrays kernel (:mod:`adaptid._kernels._soa`, bit for bit the
-        same results, several streams per vector instruction) when it pays: plain RLS
-        (its kernels, no strategy), one output, n specialised and <= ``MAX_N``, at least
-        ``MIN_STREAMS`` streams or segments, θ not stored per sample (its scatter made
-        the lane kernels slower than the scalar ones). Else None (the algorithm's own)."""
-        if store or self._kern is not _kernels.RLS or self._ptag != (0,) or \
-                not isinstance(self._ntag, tuple):
+        same results, several streams per vector instruction) when it pays: RLS in U-D
+        form (its kernels, no strategy; n <= ``MAX_N``) or in covariance form (n <=
+        ``COV_MAX_N``), one output, n specialised, at least ``MIN_STREAMS`` streams or
+        segments, θ not stored per sample (its scatter made the lane kernels slower than
+        the scalar ones). Else None (the algorithm's own)."""
+        if store or self._ptag != (0,) or not isinstance(self._ntag, tuple):
             return None
         from .._kernels import _soa
-        if self.n_params > _soa.MAX_N or count < _soa.MIN_STREAMS:
+        if count < _soa.MIN_STREAMS:
             return None
-        return _soa.rls_soa_batched if what == "batched" else _soa.rls_soa_segments
+        if self._kern is _kernels.RLS and self.n_params <= _soa.MAX_N:
+            return _soa.rls_soa_batched if what == "batched" else _soa.rls_soa_segments
+        if self._kern is _kernels.COVARIANCE and self.n_params <= _soa.COV_MAX_N:
+            return _soa.cov_soa_batched if what == "batched" else _soa.cov_soa_segments
+        return None
 
     def _warn_segments(self, status):
         if self._code_is_rebuilds:
