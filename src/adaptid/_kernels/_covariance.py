@@ -134,6 +134,7 @@ def _sweep(P, c, u, s, il, Phi, kn, bd, NP):
     for i in range(NP):
         u[i] = 0.0
     Pb = P.view(np.int64)
+    ns = -s
     lo = BINF
     hi = 0
     for j in range(NP):
@@ -141,8 +142,10 @@ def _sweep(P, c, u, s, il, Phi, kn, bd, NP):
         pj = Phi[kn, j]
         if NP <= SQRT_FREE_N:
             for i in range(NP):
-                # fused whatever LLVM does with the product shared by (j, i) and (i, j)
-                v = fma(-(cj * c[i]), s, P[j, i]) * il
+                # one fma per entry, written out: left to LLVM, ``P - (cⱼcᵢ)·s`` was fused
+                # only where the product had one use (the diagonal), which the lanes of
+                # _soa_cov could not reproduce (there, every product has one use)
+                v = fma(cj * c[i], ns, P[j, i]) * il
                 P[j, i] = v
                 u[i] += v * pj
         else:

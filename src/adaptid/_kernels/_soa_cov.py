@@ -95,7 +95,7 @@ def cov_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dt
                 cj = c[0, j, l]
                 for i in range(j, NP):
                     if NP <= SQRT_FREE_N:
-                        v = fma(-(cj * c[0, i, l]), s, P[j, i, l]) * il
+                        v = fma(cj * c[0, i, l], -s, P[j, i, l]) * il
                     else:
                         v = (P[j, i, l] - cj * c[0, i, l]) * il
                     P[j, i, l] = v

@@ -96,3 +96,4 @@ def _fma_ir(typingctx, a, b, c):
 @overload(fma, inline="always")
 def _fma(a, b, c):
     return lambda a, b, c: _fma_ir(a, b, c)
+
