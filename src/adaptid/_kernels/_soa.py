@@ -13,7 +13,8 @@ lane l, the same operations in the same order, n a compile-time constant;
 LLVM vectorises that loop (zmm with AVX-512), so each lane's bits equal the
 scalar kernel's (tests/test_soa.py). The steps of each form:
 :mod:`._soa_ud` (U-D), :mod:`._soa_cov` (covariance; a lane that needs the
-scalar kernel's repair of P is rerun by it). Where the scalar kernel branches
+scalar kernel's repair of P is rerun by it), chosen by :mod:`._soa_forms`.
+Where the scalar kernel branches
 (non-finite row: skipped; weight 0: forgetting only) every lane computes the
 whole update and keeps what the scalar kernel keeps with a select
 (:func:`._soa_lanes.blend`).
@@ -30,10 +31,9 @@ from numba import prange
 
 from .._config import njit
 from ._dims import dim
-from ._soa_cov import MAX_N as COV_MAX_N, cov_lane_load, cov_lane_steps, cov_lane_store, \
-    cov_rerun
+from ._soa_cov import MAX_N as COV_MAX_N
+from ._soa_forms import COV, UD, lane_load, lane_steps, lane_store, ratio, rerun
 from ._soa_lanes import CHUNK, INL, LANES, PAR, lane_scratch
-from ._soa_ud import ud_lane_load, ud_lane_steps, ud_lane_store
 
 __all__ = ["LANES", "CHUNK", "MIN_STREAMS", "MAX_N", "COV_MAX_N", "rls_soa_batched",
            "rls_soa_segments", "cov_soa_batched", "cov_soa_segments"]
@@ -45,62 +45,7 @@ MAX_N = 8
 
 _PAR = PAR
 _INL = INL
-#: the form tags (their lengths tell the forms apart at compile time)
-UD = (0,)
-COV = (0, 0)
-
-
-# --- what differs between the forms ---
-# Each helper tests ``form == COV``. Once the kernel's form (a global tuple) is
-# inlined down to the test, numba's dead-branch pruning removes the other branch
-# before typing: only one form's code is compiled (checked by hand: a call of an
-# undefined function in the covariance branch does not stop the U-D kernel compiling).
-# Chosen by overloads instead, the steps were inlined only by LLVM, after its loop
-# vectoriser had passed them (the U-D steps ran scalar, 2.8 x slower).
-@njit(**_INL)
-def lane_load(form, Sv, A, B, th, bad, l, NP):
-    """Lane l ← the flat state (U-D: A = U, B = D; covariance: A = P, B = u)."""
-    if form == COV:
-        cov_lane_load(Sv, A, B, th, bad, l, NP)
-    else:
-        ud_lane_load(Sv, A, B, th, bad, l, NP)
-
-
-@njit(**_INL)
-def lane_store(form, Sv, A, B, th, l, NP):
-    """The flat state ← lane l."""
-    if form == COV:
-        cov_lane_store(Sv, A, B, th, l, NP)
-    else:
-        ud_lane_store(Sv, A, B, th, l, NP)
-
-
-@njit(**_INL)
-def lane_steps(form, A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dthr, NP):
-    """Steps t0 ≤ t < t1 of every lane (:func:`._soa_ud.ud_lane_steps`,
-    :func:`._soa_cov.cov_lane_steps`)."""
-    if form == COV:
-        cov_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dthr, NP)
-    else:
-        ud_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dthr, NP)
-
-
-@njit(**_INL)
-def rerun(form, S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag):
-    """One stream by the form's scalar kernel, for a lane marked NaN (covariance:
-    P needs the repair the lanes do not do); its code. U-D lanes are never marked."""
-    if form == COV:
-        return cov_rerun(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag)
-    return -1
-
-
-@njit(**_INL)
-def ratio(form, lk, wk):
-    """The per-sample factor the steps read as Rc: U-D 1/w, covariance r = λ/w
-    (λ where w = 1, as :func:`._covariance._cov_stream`)."""
-    if form == COV:
-        return lk if wk == 1.0 else lk / wk
-    return 1.0 / wk
+_ONE = dict(INL, inline="never")
 
 
 @njit(**_INL)
@@ -249,10 +194,29 @@ def _batched_block(form, S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, 
 def _soa_batched(form, S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, ntag):
     nb = (Phi.shape[0] + LANES - 1) // LANES
     il0, r0 = _constants(form, lam, w, (0, 0))
-    NP = dim(ntag)
     for q in prange(nb):
-        _batched_block(form, S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, q * LANES, opt, mat,
-                       il0, r0, ntag, NP)
+        if form == COV:
+            _cov_batched_block(S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, q * LANES, opt, mat,
+                               il0, r0, ntag)
+        else:
+            _ud_batched_block(S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, q * LANES, opt, mat,
+                              il0, r0, ntag)
+
+
+# A block is compiled on its own, not inlined into the parallel loop: numba's parfor
+# passes then see a loop of one call instead of the whole inlined block (its fusion
+# pass alone took 3.2 of the 12 s the U-D lane kernel took to compile).
+@njit(**_ONE)
+def _ud_batched_block(S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, mat, il0, r0, ntag):
+    _batched_block(UD, S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, mat, il0, r0,
+                   ntag, dim(ntag))
+
+
+@njit(**_ONE)
+def _cov_batched_block(S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, mat, il0, r0,
+                       ntag):
+    _batched_block(COV, S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, mat, il0, r0,
+                   ntag, dim(ntag))
 
 
 @njit(**_PAR)
@@ -359,8 +323,26 @@ def _soa_segments(form, S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, o
         seg = np.full(LANES, -1, dtype=np.int64)
         for l in range(min(LANES, G - blk * LANES)):
             seg[l] = order[blk * LANES + l]
-        _segment_block(form, S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, codes, seg,
-                       opt, mat, il0, r0, ntag)
+        if form == COV:
+            _cov_segment_block(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, codes, seg,
+                               opt, mat, il0, r0, ntag)
+        else:
+            _ud_segment_block(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, codes, seg,
+                              opt, mat, il0, r0, ntag)
+
+
+@njit(**_ONE)
+def _ud_segment_block(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, codes, seg, opt,
+                      mat, il0, r0, ntag):
+    _segment_block(UD, S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, codes, seg, opt,
+                   mat, il0, r0, ntag)
+
+
+@njit(**_ONE)
+def _cov_segment_block(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, codes, seg, opt,
+                       mat, il0, r0, ntag):
+    _segment_block(COV, S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, codes, seg, opt,
+                   mat, il0, r0, ntag)
 
 
 @njit(**_PAR)
