@@ -54,21 +54,25 @@ def _routed(est, kernel):
     return routed
 
 
-@pytest.mark.parametrize("n", [1, 3, 8])
-def test_batched_equals_run_per_stream(n):
+# covariance: n = 3 forms P's rank-one term with 1/d (n <= SQRT_FREE_N), n = 5 with
+# c = u/sqrt(d) (_kernels/_soa_cov.py)
+@pytest.mark.parametrize("n, form", [(1, "ud"), (3, "ud"), (8, "ud"), (3, "covariance"),
+                                     (5, "covariance")])
+def test_batched_equals_run_per_stream(n, form):
     rng = np.random.default_rng(n)
     B, N = 2 * _soa.LANES + 5, 70  # not a multiple of the lanes: a padded block
     Phi, y, w, lam = _data(rng, B, N, n)
-    est = adaptid.RLS(n, forgetting=0.98, P0=100.0, nan_policy="skip",
+    est = adaptid.RLS(n, forgetting=0.98, P0=100.0, nan_policy="skip", form=form,
                       theta0=rng.standard_normal(n))
-    assert est._soa_entry("batched", B) is _soa.rls_soa_batched
+    lanes = _soa.cov_soa_batched if form == "covariance" else _soa.rls_soa_batched
+    assert est._soa_entry("batched", B) is lanes
     assert est._soa_entry("batched", B, store=True) is None  # θ per sample: the old kernel
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
         bat = est.copy()
         tb = bat.run_batched(Phi, y, weights=w, forgetting=lam, store=False)
         # the lane kernel with θ stored
-        stored = _routed(est, _soa.rls_soa_batched)
+        stored = _routed(est, lanes)
         ts = stored.run_batched(Phi, y, weights=w, forgetting=lam, store=True)
         for s in range(B):
             one = est.copy()
@@ -79,6 +83,7 @@ def test_batched_equals_run_per_stream(n):
             assert _same(bat.theta[s], one.theta), s
             assert _same(bat.P[s], one.P), s
             assert _same(stored.theta[s], one.theta), s
+            assert _same(stored.P[s], one.P), s
     assert tb.skipped.any() and (w == 0).any()  # the cases were exercised
 
 
@@ -142,20 +147,21 @@ def _offsets(rng, G):
 # n = 3 as the other segment tests: one compilation of the lane kernel for
 # segments (n = 1 and 8 of the lane steps it shares are in the batched test)
 @pytest.mark.parametrize("n", [3])
-@pytest.mark.parametrize("store", [False, True])
-def test_segments_equal_run_per_segment(n, store):
+@pytest.mark.parametrize("store, form", [(False, "ud"), (True, "ud"), (False, "covariance")])
+def test_segments_equal_run_per_segment(n, store, form):
     rng = np.random.default_rng(10 + n)
     G = 4 * _soa.LANES + 3
     off = _offsets(rng, G)
     Phi, y, w, _ = _data(rng, 1, int(off[-1]), n)
     Phi, y, w = Phi[0], y[0], w[0]
-    est = adaptid.RLS(n, forgetting=0.95, P0=1e3, nan_policy="skip")
-    assert est._soa_entry("segments", G) is _soa.rls_soa_segments
+    est = adaptid.RLS(n, forgetting=0.95, P0=1e3, nan_policy="skip", form=form)
+    lanes = _soa.cov_soa_segments if form == "covariance" else _soa.rls_soa_segments
+    assert est._soa_entry("segments", G) is lanes
     assert est._soa_entry("segments", G, store=True) is None  # θ per sample: the old kernel
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
         # with θ stored the engine itself takes the old kernel: route it to the lanes
-        routed = _routed(est, _soa.rls_soa_segments) if store else est
+        routed = _routed(est, lanes) if store else est
         res = routed.run_segments(Phi, y, off, weights=w, store=store)
         for g in range(G):
             a, z = off[g], off[g + 1]
@@ -223,55 +229,6 @@ def test_several_outputs_old_path_equals_run():
 
 
 # --- the covariance form's lanes (_kernels/_soa_cov.py) ---
-# n = 3: P's rank-one term with 1/d (n <= SQRT_FREE_N); n = 5: with c = u/sqrt(d)
-@pytest.mark.parametrize("n", [3, 5])
-def test_covariance_batched_equals_run_per_stream(n):
-    rng = np.random.default_rng(20 + n)
-    B, N = 2 * _soa.LANES + 5, 70
-    Phi, y, w, lam = _data(rng, B, N, n)
-    est = adaptid.RLS(n, forgetting=0.98, P0=100.0, nan_policy="skip", form="covariance",
-                      theta0=rng.standard_normal(n))
-    assert est._soa_entry("batched", B) is _soa.cov_soa_batched
-    assert est._soa_entry("batched", B, store=True) is None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
-        bat = est.copy()
-        tb = bat.run_batched(Phi, y, weights=w, forgetting=lam, store=False)
-        stored = _routed(est, _soa.cov_soa_batched)
-        ts = stored.run_batched(Phi, y, weights=w, forgetting=lam, store=True)
-        for s in range(B):
-            one = est.copy()
-            tr = one.run(Phi[s], y[s], weights=w[s], forgetting=lam[s])
-            assert _same(ts.theta[s], tr.theta), s
-            assert _same(tb.error[s], tr.error), s
-            assert np.array_equal(tb.skipped[s], tr.skipped), s
-            assert _same(bat.theta[s], one.theta), s
-            assert _same(bat.P[s], one.P), s
-            assert _same(stored.P[s], one.P), s
-    assert tb.skipped.any() and (w == 0).any()
-
-
-def test_covariance_segments_equal_run_per_segment():
-    rng = np.random.default_rng(31)
-    G, n = 4 * _soa.LANES + 3, 3
-    off = _offsets(rng, G)
-    Phi, y, w, _ = _data(rng, 1, int(off[-1]), n)
-    Phi, y, w = Phi[0], y[0], w[0]
-    est = adaptid.RLS(n, forgetting=0.95, P0=1e3, nan_policy="skip", form="covariance")
-    assert est._soa_entry("segments", G) is _soa.cov_soa_segments
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", adaptid.CovarianceWindupWarning)
-        res = est.run_segments(Phi, y, off, weights=w)
-        for g in range(G):
-            a, z = off[g], off[g + 1]
-            one = est.copy().reset()
-            tr = one.run(Phi[a:z], y[a:z], weights=w[a:z])
-            assert _same(res.theta[g], one.theta), g
-            assert _same(res.error[a:z], tr.error), g
-            assert np.array_equal(res.skipped[a:z], tr.skipped), g
-            assert _same(res.P[g], one.P), g
-
-
 def _covariance_codes(est, kernel, what, *args):
     """Run ``what`` routed to ``kernel`` (None: the scalar kernels); its result and the
     kernel's per-stream codes."""

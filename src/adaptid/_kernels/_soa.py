@@ -46,6 +46,9 @@ MAX_N = 8
 _PAR = PAR
 _INL = INL
 _ONE = dict(INL, inline="never")
+#: which gather a block uses (:func:`_gather`)
+BATCHED = False
+SEGMENTS = True
 
 
 @njit(**_INL)
@@ -67,14 +70,33 @@ def _chunk_scratch(NP):
 
 
 @njit(**_INL)
-def _buffers(k0, A, B):
-    """(the chunk's, the next chunk's) buffers for the chunk at k0: A and B in turn.
+def _chunk(form, seg, U, D, th, bad, Ec, Sk, Thc, bufs, k0, T, N, dthr, Phi, Y, lam, w, a, b,
+           il0, r0, NP):
+    """The T steps of the chunk at k0 (of N samples) from one of the buffers ``bufs``
+    while the next chunk is gathered into the other, one sample per step: the loads
+    from the streams then overlap the arithmetic (gathering a whole chunk before its
+    steps left them waiting on memory: n = 4, B = 10⁴, 120 → 143 M updates/s on one
+    thread). a, b: the block's streams (batched) or segments, as :func:`_gather`."""
+    odd = (k0 // CHUNK) % 2 == 1
+    (X, Yc, Lc, Wc, Rc), nxt = (bufs[1], bufs[0]) if odd else (bufs[0], bufs[1])
+    T1 = min(CHUNK, N - k0 - CHUNK)
+    for t in range(T):
+        lane_steps(form, U, D, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t, t + 1, dthr, NP)
+        if t < T1:
+            _gather(form, seg, Phi, Y, lam, w, a, b, k0 + CHUNK, t, t + 1, nxt, il0, r0, NP)
 
-    The steps of a chunk read one while the next chunk is gathered into the other,
-    one sample per step: the loads from the streams then overlap the arithmetic
-    (gathering a whole chunk before its steps left them waiting on memory: at
-    n = 4, B = 10⁴, 120 → 143 M updates/s on one thread)."""
-    return (B, A) if (k0 // CHUNK) % 2 == 1 else (A, B)
+
+@njit(**_INL)
+def _gather(form, seg, Phi, Y, lam, w, a, b, k0, t0, t1, buf, il0, r0, NP):
+    """Samples k0 + t, t0 ≤ t < t1, into row t of the buffer: of the block's streams
+    s0 = a, nl = b (``seg`` False: :func:`_batched_gather`), or of the lanes' segments
+    sa = a, sn = b (``seg`` True: :func:`_segment_gather`; a global constant, so that
+    numba removes the other branch)."""
+    X, Yc, Lc, Wc, Rc = buf
+    if seg:
+        _segment_gather(form, Phi, Y, lam, w, a, b, k0, t0, t1, X, Yc, Lc, Wc, Rc, il0, r0, NP)
+    else:
+        _batched_gather(form, Phi, Y, lam, w, a, b, k0, t0, t1, X, Yc, Lc, Wc, Rc, il0, r0, NP)
 
 
 # --- the per-sample λ and w, lane-major ---
@@ -158,19 +180,12 @@ def _batched_block(form, S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, 
     if il0 == il0 and r0 == r0 and N > 0:
         _fill_constant(Lc, Wc, Rc, il0, w[0, 0], r0)
         _fill_constant(Lc2, Wc2, Rc2, il0, w[0, 0], r0)
-    _batched_gather(form, Phi, Y, lam, w, s0, nl, 0, 0, min(CHUNK, N), X, Yc, Lc, Wc, Rc, il0,
-                    r0, NP)
+    bufs = ((X, Yc, Lc, Wc, Rc), (X2, Yc2, Lc2, Wc2, Rc2))
+    _gather(form, BATCHED, Phi, Y, lam, w, s0, nl, 0, 0, min(CHUNK, N), bufs[0], il0, r0, NP)
     for k0 in range(0, N, CHUNK):
         T = min(CHUNK, N - k0)
-        T1 = min(CHUNK, N - k0 - CHUNK)
-        (Xc, Ycc, Lcc, Wcc, Rcc), (Xn, Ycn, Lcn, Wcn, Rcn) = _buffers(
-            k0, (X, Yc, Lc, Wc, Rc), (X2, Yc2, Lc2, Wc2, Rc2))
-        for t in range(T):
-            lane_steps(form, U, D, th, bad, Xc, Ycc, Lcc, Wcc, Rcc, Ec, Sk, Thc, k0, t, t + 1,
-                       dthr, NP)
-            if t < T1:
-                _batched_gather(form, Phi, Y, lam, w, s0, nl, k0 + CHUNK, t, t + 1, Xn, Ycn,
-                                Lcn, Wcn, Rcn, il0, r0, NP)
+        _chunk(form, BATCHED, U, D, th, bad, Ec, Sk, Thc, bufs, k0, T, N, dthr, Phi, Y, lam, w,
+               s0, nl, il0, r0, NP)
         # (scattering the previous chunk's ε one sample per step too was slower: 143 ->
         # 120 M updates/s at n = 4)
         _batched_scatter(E, skipped, Ec, Sk, s0, nl, k0, 0, T)
@@ -273,19 +288,12 @@ def _segment_block(form, S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, 
     if il0 == il0 and r0 == r0 and M > 0:
         _fill_constant(Lc, Wc, Rc, il0, w[0], r0)
         _fill_constant(Lc2, Wc2, Rc2, il0, w[0], r0)
-    _segment_gather(form, Phi, Y, lam, w, sa, sn, 0, 0, min(CHUNK, M), X, Yc, Lc, Wc, Rc, il0,
-                    r0, NP)
+    bufs = ((X, Yc, Lc, Wc, Rc), (X2, Yc2, Lc2, Wc2, Rc2))
+    _gather(form, SEGMENTS, Phi, Y, lam, w, sa, sn, 0, 0, min(CHUNK, M), bufs[0], il0, r0, NP)
     for k0 in range(0, M, CHUNK):
         T = min(CHUNK, M - k0)
-        T1 = min(CHUNK, M - k0 - CHUNK)
-        (Xc, Ycc, Lcc, Wcc, Rcc), (Xn, Ycn, Lcn, Wcn, Rcn) = _buffers(
-            k0, (X, Yc, Lc, Wc, Rc), (X2, Yc2, Lc2, Wc2, Rc2))
-        for t in range(T):
-            lane_steps(form, U, D, th, bad, Xc, Ycc, Lcc, Wcc, Rcc, Ec, Sk, Thc, k0, t, t + 1,
-                       dthr, NP)
-            if t < T1:
-                _segment_gather(form, Phi, Y, lam, w, sa, sn, k0 + CHUNK, t, t + 1, Xn, Ycn, Lcn,
-                                Wcn, Rcn, il0, r0, NP)
+        _chunk(form, SEGMENTS, U, D, th, bad, Ec, Sk, Thc, bufs, k0, T, M, dthr, Phi, Y, lam, w,
+               sa, sn, il0, r0, NP)
         for t in range(T):  # t outer, as _batched_scatter
             for l in range(LANES):
                 if k0 + t < sn[l]:

@@ -34,7 +34,7 @@ import numpy as np
 
 from .._config import njit
 from ._covariance import SQRT_FREE_N, cov_run
-from ._soa_lanes import INL, LANES, blend, lane_scratch
+from ._soa_lanes import INL, LANES, blend, lane_sample, lane_scratch
 from ._vecir import fma
 
 #: the largest n of these lane steps (see the module docstring)
@@ -52,15 +52,7 @@ def cov_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dt
     c = lane_scratch(1, NP)
     for t in range(t0, t1):
         for l in range(LANES):
-            ok = True
-            for i in range(NP):
-                ok &= X[t, i, l] - X[t, i, l] == 0.0
-            yk = Yc[0, t, l]
-            ok &= yk - yk == 0.0
-            upd = ok & (Wc[0, t, l] > 0.0)
-            e = yk  # _prior_error (n < TREE_ERROR_N)
-            for i in range(NP):
-                e -= X[t, i, l] * th[0, i, l]
+            ok, upd, e = lane_sample(X, Yc, Wc, th, t, l, NP)
             for i in range(NP):  # _matvec: u = Σⱼ φⱼ P[j, :]
                 u[0, i, l] = 0.0
             for j in range(NP):

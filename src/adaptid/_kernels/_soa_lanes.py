@@ -10,7 +10,7 @@ import numpy as np
 from numba import types
 from numba.extending import intrinsic, overload
 
-from .._config import NJIT_INLINE, NJIT_PARALLEL
+from .._config import NJIT_INLINE, NJIT_PARALLEL, njit
 from ._scratch import _stack_ptr
 
 #: Streams advanced together by one vector instruction (4 doubles with AVX2, 8
@@ -62,3 +62,19 @@ def _blend(c, a, b):
     # Not a branch: LLVM made masked stores of those, and a load after a masked
     # store waits for it to retire (no forwarding): the step ran 5-10 x slower.
     return lambda c, a, b: _select(c, a, b)
+
+
+@njit(**INL)
+def lane_sample(X, Yc, Wc, th, t, l, NP):
+    """Lane l's sample t: whether it is finite (φ and y), whether it updates (finite,
+    w > 0), and its prior error ε = y − φᵀθ summed in order (the scalar kernels'
+    ``_prior_error`` for one output and n < 16)."""
+    ok = True
+    for i in range(NP):
+        ok &= X[t, i, l] - X[t, i, l] == 0.0
+    yk = Yc[0, t, l]
+    ok &= yk - yk == 0.0
+    e = yk
+    for i in range(NP):
+        e -= X[t, i, l] * th[0, i, l]
+    return ok, ok & (Wc[0, t, l] > 0.0), e

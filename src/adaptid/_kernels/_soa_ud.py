@@ -10,7 +10,7 @@ first windup sample ``bad[0, 0, l]``.
 import numpy as np
 
 from .._config import njit
-from ._soa_lanes import INL, LANES, blend, lane_scratch
+from ._soa_lanes import INL, LANES, blend, lane_sample, lane_scratch
 
 _INL = INL
 
@@ -88,15 +88,7 @@ def ud_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dth
     b = lane_scratch(1, NP)
     for t in range(t0, t1):
         for l in range(LANES):
-            ok = True
-            for i in range(NP):
-                ok &= X[t, i, l] - X[t, i, l] == 0.0
-            yk = Yc[0, t, l]
-            ok &= yk - yk == 0.0
-            upd = ok & (Wc[0, t, l] > 0.0)
-            e = yk
-            for i in range(NP):
-                e -= X[t, i, l] * th[0, i, l]
+            ok, upd, e = lane_sample(X, Yc, Wc, th, t, l, NP)
             il = Lc[0, t, l]
             for j in range(NP):  # _bierman_prep on D/λ
                 s = X[t, j, l]
