@@ -15,7 +15,8 @@ where :math:`c_i c_j = c_j c_i` bit for bit keeps P exactly symmetric
 (Ljung & Söderström 1983, eq. 2.19, with the symmetric rank-one form). For
 n ≤ ``SQRT_FREE_N`` (4) the rank-one term is formed as
 :math:`(u_i u_j)\cdot(1/d)` instead, in one fused multiply-add with
-:math:`P_{ij}` (as symmetric, bit for bit, and the same in exact arithmetic): at these sizes the update is bound by the latency of one
+:math:`P_{ij}` (as symmetric, bit for bit, and the same in exact arithmetic):
+at these sizes the update is bound by the latency of one
 sample's chain of dependent operations, and this takes the square root off it.
 The P update of sample k is fused with :math:`u = P\varphi_{k+1}` of the next
 (``u += P[j, :] φⱼ``, an axpy LLVM vectorises); one sweep over P per sample.

@@ -45,9 +45,9 @@ _INL = INL
 
 @njit(**_INL)
 def cov_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dthr, NP):
-    """T time steps of every lane (module docstring); the arguments as
-    :func:`._soa._lane_steps` takes them, with P's upper triangle in the place of
-    U, u in that of D, and Rc = r = λ/w (λ where w = 1)."""
+    """Steps t0 ≤ t < t1 of every lane (module docstring); the arguments as
+    :func:`._soa_ud.ud_lane_steps` takes them, with P's upper triangle in the place
+    of U, u in that of D, and Rc = r = λ/w (λ where w = 1)."""
     P, u = A, B  # the names of lane_steps (one signature for both forms)
     c = lane_scratch(1, NP)
     for t in range(t0, t1):
@@ -67,10 +67,10 @@ def cov_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dt
             d = Rc[0, t, l] + q
             idd = 1.0 / d
             for i in range(NP):  # theta_step
-                t1 = th[0, i, l]
-                t1 = blend(upd, t1 + (u[0, i, l] * idd) * e, t1)
-                th[0, i, l] = t1
-                Thc[t, i, l] = t1
+                tk = th[0, i, l]
+                tk = blend(upd, tk + (u[0, i, l] * idd) * e, tk)
+                th[0, i, l] = tk
+                Thc[t, i, l] = tk
             if NP <= SQRT_FREE_N:
                 s = blend(upd, idd, 0.0)
                 for i in range(NP):

@@ -16,31 +16,31 @@ _INL = INL
 
 
 @njit(**_INL)
+def _lane_pivot(D, f, v, a, il, ok, upd, j, l):
+    """Column j's α = a + fⱼvⱼ and 1/α; the pivot Dⱼ ← (Dⱼ/λ)·(a/α) where ``upd``,
+    Dⱼ/λ where only ``ok`` (a at column 0: r)."""
+    an = a + f[0, j, l] * v[0, j, l]
+    ian = 1.0 / an
+    d0 = D[0, j, l]
+    dd = d0 * il
+    D[0, j, l] = blend(ok, blend(upd, dd * (a * ian), dd), d0)
+    return an, ian
+
+
+@njit(**_INL)
 def _lane_bierman(U, D, f, v, b, r, il, ok, upd, l, NP):
     """:func:`._bierman._bierman_apply_pairs` for lane l on the pivots D/λ.
 
     U and D take the updated values where ``upd``, D the forgotten ones
     D/λ where only ``ok``, and keep theirs elsewhere. Returns α.
     """
-    a = r + f[0, 0, l] * v[0, 0, l]
-    ia = 1.0 / a
-    d0 = D[0, 0, l]
-    dd = d0 * il
-    D[0, 0, l] = blend(ok, blend(upd, dd * (r * ia), dd), d0)
+    a, ia = _lane_pivot(D, f, v, r, il, ok, upd, 0, l)
     b[0, 0, l] = v[0, 0, l]
     for j in range(1, NP - 1, 2):
-        an = a + f[0, j, l] * v[0, j, l]
-        ian = 1.0 / an
-        d0 = D[0, j, l]
-        dd = d0 * il
-        D[0, j, l] = blend(ok, blend(upd, dd * (a * ian), dd), d0)
+        an, ian = _lane_pivot(D, f, v, a, il, ok, upd, j, l)
         pj = -f[0, j, l] * ia
         vj = v[0, j, l]
-        a2 = an + f[0, j + 1, l] * v[0, j + 1, l]
-        ia2 = 1.0 / a2
-        d0 = D[0, j + 1, l]
-        dd = d0 * il
-        D[0, j + 1, l] = blend(ok, blend(upd, dd * (an * ia2), dd), d0)
+        a2, ia2 = _lane_pivot(D, f, v, an, il, ok, upd, j + 1, l)
         pj2 = -f[0, j + 1, l] * ian
         vj2 = v[0, j + 1, l]
         for i in range(j):
@@ -59,11 +59,7 @@ def _lane_bierman(U, D, f, v, b, r, il, ok, upd, l, NP):
         ia = ia2
     j = NP - 1
     if NP % 2 == 0 and NP > 1:  # the last column alone
-        an = a + f[0, j, l] * v[0, j, l]
-        ian = 1.0 / an
-        d0 = D[0, j, l]
-        dd = d0 * il
-        D[0, j, l] = blend(ok, blend(upd, dd * (a * ian), dd), d0)
+        an, ian = _lane_pivot(D, f, v, a, il, ok, upd, j, l)
         pj = -f[0, j, l] * ia
         vj = v[0, j, l]
         for i in range(j):
@@ -77,9 +73,9 @@ def _lane_bierman(U, D, f, v, b, r, il, ok, upd, l, NP):
 
 @njit(**_INL)
 def ud_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dthr, NP):
-    """T time steps of every lane: the body of :func:`._rls._rls_body` per lane.
+    """Steps t0 ≤ t < t1 of every lane: the body of :func:`._rls._rls_body` per lane.
 
-    X (Φ), Yc (y), Lc (1/λ), Wc (w), Rc (1/w) hold the samples k0 … k0+T−1
+    Row t of X (Φ), Yc (y), Lc (1/λ), Wc (w), Rc (1/w) holds sample k0 + t,
     lane-major; Ec, Sk and Thc receive ε, the skipped flags and θ.
     """
     U, D = A, B  # the names of lane_steps (one signature for both forms)
@@ -101,10 +97,10 @@ def ud_lane_steps(A, B, th, bad, X, Yc, Lc, Wc, Rc, Ec, Sk, Thc, k0, t0, t1, dth
             inside = True
             for i in range(NP):
                 g = b[0, i, l] * ia
-                t1 = th[0, i, l]
-                t1 = blend(upd, t1 + g * e, t1)
-                th[0, i, l] = t1
-                Thc[t, i, l] = t1
+                tk = th[0, i, l]
+                tk = blend(upd, tk + g * e, tk)
+                th[0, i, l] = tk
+                Thc[t, i, l] = tk
                 d = D[0, i, l]
                 inside &= (d > 0.0) & (d < dthr)
             inside |= not ok
