@@ -23,12 +23,12 @@ def _sse_one(E, skipped, a, z, j):
         s1 += 0.0 if k1 else e1 * e1
         s2 += 0.0 if k2 else e2 * e2
         s3 += 0.0 if k3 else e3 * e3
-        c += k0 + k1 + k2 + k3
+        c += int(k0) + int(k1) + int(k2) + int(k3)  # (NumPy adds bools as "or")
         k += PARTS
     while k < z:
         e0 = E[k, j]
         s0 += 0.0 if skipped[k] else e0 * e0
-        c += skipped[k]
+        c += int(skipped[k])
         k += 1
     return (s0 + s1) + (s2 + s3), c
 
