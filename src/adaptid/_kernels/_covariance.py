@@ -20,7 +20,8 @@ at these sizes the update is bound by the latency of one
 sample's chain of dependent operations, and this takes the square root off it.
 The P update of sample k is fused with :math:`u = P\varphi_{k+1}` of the next
 (``u += P[j, :] φⱼ``, an axpy LLVM vectorises); one sweep over P per sample.
-For a compile-time 4 < n ≤ 32 the sweep, with c = u/√d, is hand-written LLVM
+For a compile-time 4 < n ≤ ``VECTOR_SWEEP_MAX`` (32 on AMD Zen, 64 elsewhere)
+the sweep, with c = u/√d, is hand-written LLVM
 vector code (:mod:`._covsweep`: numba leaves the SLP vectoriser off, and the
 unrolled loops of c and of the sweep stayed scalar); the same operations.
 From n = 8 on, :math:`\varphi^T u` is summed in 8 partial sums added as a

@@ -27,14 +27,20 @@ from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
 from .._config import NJIT_INLINE, njit
-from ._vecir import LANES, _lanes, _ptr, _splat, lane_tree, loop_end, scalar_fma, store_vecs, \
+from ._vecir import LANES, ZEN, _lanes, _ptr, _splat, lane_tree, loop_end, scalar_fma, store_vecs, \
     vector_blocks, vector_fmas
 
 
 #: the largest n swept by this code; above it the scalar loops of _covariance,
-#: which LLVM's loop vectoriser handles, were faster (bench_rls.py --forms at n = 64:
-#: 0.87 against 0.70 x the C loop, with c in registers or reloaded per row alike)
-VECTOR_SWEEP_MAX = 32
+#: which LLVM's loop vectoriser handles. Which is faster depends on the core
+#: (bench_rls.py --forms, covariance form ÷ the best C loop at n = 64): on AMD
+#: Zen 4 (EPYC, 512-bit operations in two halves) the scalar loops, 0.87 against
+#: 0.70 (c in registers or reloaded per row alike), so 32 there; on Intel
+#: (Emerald Rapids, full-width AVX-512) this code, 1.20 against 0.77, and at
+#: n = 40 / 48 / 64 4.6 / 2.9 / 1.9 against 3.4 / 1.9 / 1.1 M updates/s, so 64
+#: (:data:`FORMS_SPECIALISED_N <adaptid.estimators._rlsforms.FORMS_SPECIALISED_N>`,
+#: the largest compile-time n) elsewhere.
+VECTOR_SWEEP_MAX = 32 if ZEN else 64
 
 
 def _theta_step_ir(builder, th, u, idd, e, vecs, fmas):

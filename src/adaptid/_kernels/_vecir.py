@@ -13,6 +13,21 @@ from numba.extending import intrinsic, overload
 LANES = 8
 
 
+def target_cpu():
+    """The CPU numba compiles for: ``NUMBA_CPU_NAME`` if set, else the host's, in
+    LLVM's names (``"znver4"``, ``"sapphirerapids"``, ...). numba's disk cache keys
+    its entries by this CPU too, so a choice made from it is made again on another."""
+    from llvmlite import binding
+    from numba.core import config
+    return config.CPU_NAME or binding.get_host_cpu_name()
+
+
+#: Whether the target is an AMD Zen core: Zen 4 runs a 512-bit operation as two
+#: 256-bit halves, and there the long vector sweeps lost to LLVM's own loop
+#: vectoriser (see :data:`._covsweep.VECTOR_SWEEP_MAX`).
+ZEN = target_cpu().startswith("znver")
+
+
 def _ptr(builder, base, off, ty):
     """&base[off] (doubles), as a pointer to ``ty`` (a vector or a double)."""
     return builder.bitcast(builder.gep(base, [ir.Constant(ir.IntType(64), off)]),
