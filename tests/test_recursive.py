@@ -290,6 +290,24 @@ def test_updates_and_short_runs_compile_nothing_after_a_run(rng, make):
 
 
 @THREE
+def test_update_takes_any_spelling_of_phi(rng, make):
+    """update's fast path (a native float64 array of shape (n,), copied as it is) and
+    its conversion path (anything else) give the same bits: a big-endian float64 φ,
+    a strided view, a list, and a float32 φ against the float64 of its values."""
+    Phi, y, _ = make_data(rng, 24, 3)
+    ref, est = make(), make()
+    big = Phi.astype(">f8")
+    wide = np.repeat(Phi, 2, axis=1)[:, ::2]  # non-contiguous rows, same values
+    for k in range(24):
+        spelt = (big[k], wide[k], Phi[k].tolist(), Phi[k].astype(np.float32))[k % 4]
+        phi = Phi[k] if k % 4 < 3 else Phi[k].astype(np.float32).astype(np.float64)
+        e_ref = ref.update(phi, y[k])
+        e = est.update(spelt, y[k])
+        assert type(e) is float and (e == e_ref)
+    assert np.array_equal(ref.theta, est.theta) and np.array_equal(ref.P, est.P)
+
+
+@THREE
 def test_batched_equals_single_runs(rng, make):
     B, N, n = 7, 200, 3
     Phi = rng.standard_normal((B, N, n))

@@ -84,6 +84,9 @@ def _is_default_index(index):
     return start == 0 and step == 1
 
 _NAN_POLICIES = ("raise", "skip")
+#: numpy's float64 dtype: ``update`` takes a float64 φ as it is when its dtype is this
+#: object (native byte order), and converts anything else.
+_F64 = np.dtype(np.float64)
 
 
 class _StepArrays:
@@ -94,6 +97,7 @@ class _StepArrays:
 
     def __init__(self, n, p, reports):
         self.phi = np.zeros((1, n))
+        self.phi1 = self.phi[0]  # filled with ``phi1[...] = φ`` (half the time of ``phi[0] = φ``)
         self.y = np.zeros((1, p))
         self.lw = np.ones(2)
         self.lam_now = self.w_now = 1.0  # the values in lw
@@ -592,10 +596,10 @@ class RecursiveEstimator:
         w = 1.0 if type(weight) is float and weight == 1.0 else self._weight(weight)
         lam = self._lam_fixed if forgetting is None else self._lam_step(forgetting)
         a = self._step
-        if type(phi) is np.ndarray and phi.shape == a.nshape and phi.dtype.char == "d":
-            a.phi[0] = phi
+        if type(phi) is np.ndarray and phi.dtype is _F64 and phi.shape == a.nshape:
+            a.phi1[...] = phi
         else:
-            a.phi[0] = self._phi(phi)
+            a.phi1[...] = self._phi(phi)
         if self._single and (type(y) is float or type(y) is np.float64):
             a.y[0, 0] = y
         else:
@@ -617,7 +621,7 @@ class RecursiveEstimator:
         else:
             code = self._kern.run(*args)
             self._update_ep = _entry_point(self._kern.run, args)
-        e = a.E[0, 0]
+        e = a.E.item(0)  # a Python float
         if e != e and a.skipped[0]:  # a skipped sample (its error is NaN)
             a.skipped[0] = False
             self._nonfinite_step(a.phi[0], a.y[0])
@@ -633,7 +637,7 @@ class RecursiveEstimator:
             self._warn_nonpositive(self.n_updates)
         elif code <= -2:  # a repaired covariance (RLS form="covariance")
             self._warn_rebuild(1)
-        return float(e) if self._single else a.E[0].copy()
+        return e if self._single else a.E[0].copy()
 
     def run(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
             has_constant=None):
