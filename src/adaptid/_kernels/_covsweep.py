@@ -36,8 +36,9 @@ from ._vecir import LANES, ZEN, _lanes, _ptr, _splat, lane_tree, loop_end, scala
 #: (bench_rls.py --forms, covariance form ÷ the best C loop at n = 64): on AMD
 #: Zen 4 (EPYC, 512-bit operations in two halves) the scalar loops, 0.87 against
 #: 0.70 (c in registers or reloaded per row alike), so 32 there; on Intel
-#: (Emerald Rapids, full-width AVX-512) this code, 1.20 against 0.77, and at
-#: n = 40 / 48 / 64 4.6 / 2.9 / 1.9 against 3.4 / 1.9 / 1.1 M updates/s, so 64
+#: (Emerald Rapids, full-width AVX-512) this code, 1.6 x the scalar loops at
+#: n = 40, 48 and 64 (benchmarks/ab_covsweep.py, median of three alternating
+#: rounds; 1.17 against 0.73-0.77 x the C loop at n = 64), so 64
 #: (:data:`FORMS_SPECIALISED_N <adaptid.estimators._rlsforms.FORMS_SPECIALISED_N>`,
 #: the largest compile-time n) elsewhere.
 VECTOR_SWEEP_MAX = 32 if ZEN else 64
