@@ -351,6 +351,9 @@ def test_info_json():
     assert data["extras"]["cli"]["installed"] is True
     import numba
     assert data["numba"] == numba.__version__
+    # the CPU numba's own code generator compiles for (kernel tuning and cache keys follow it)
+    from numba.core.registry import cpu_target
+    assert data["numba_target_cpu"] == cpu_target.target_context.codegen()._get_host_cpu_name()
 
 
 def test_console_script_info():

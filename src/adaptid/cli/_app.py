@@ -425,7 +425,7 @@ def info(
     verbose: VerboseOpt = False,
     debug: DebugOpt = False,
 ):
-    """Versions of adaptid, Python, NumPy, SciPy, numba; numba's threading layer; installed extras."""
+    """Versions of adaptid, Python, NumPy, SciPy, numba; numba's threading layer and target CPU; installed extras."""
     out = _output(ctx, quiet, verbose, debug, json)
     with _guard(out):
         from ._info import gather_info
@@ -443,7 +443,8 @@ def info(
             ("numpy", "NumPy"), ("scipy", "SciPy"), ("numba", "numba"),
             ("numba_threading_layer_config", "numba threading layer (config)"),
             ("numba_threading_layer", "numba threading layer (in use)"),
-            ("numba_num_threads", "numba threads"), ("cpu_count", "CPUs"))]
+            ("numba_num_threads", "numba threads"), ("numba_target_cpu", "numba target CPU"),
+            ("cpu_count", "CPUs"))]
         if out.verbose:
             rows.append(["executable", data["executable"]])
         out.print(rich_table("adaptid installation", ["item", "value"], rows, left=2,

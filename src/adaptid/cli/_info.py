@@ -1,4 +1,4 @@
-"""``adaptid info``: versions, numba's threading layer, installed extras."""
+"""``adaptid info``: versions, numba's threading layer and target CPU, installed extras."""
 
 from __future__ import annotations
 
@@ -60,6 +60,7 @@ def gather_info() -> dict:
     import scipy
 
     import adaptid
+    from adaptid._kernels._vecir import target_cpu
 
     configured = numba.config.THREADING_LAYER
     # a tiny call of a parallel (prange) kernel makes numba choose its layer
@@ -80,6 +81,8 @@ def gather_info() -> dict:
         "numba_threading_layer_config": configured,
         "numba_threading_layer": layer,
         "numba_num_threads": int(numba.config.NUMBA_NUM_THREADS),
+        # the CPU the kernels are compiled (and cached) for; some tuning follows it
+        "numba_target_cpu": target_cpu(),
         "cpu_count": os.cpu_count(),
         "extras": _extras(),
     }
