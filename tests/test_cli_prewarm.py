@@ -41,7 +41,10 @@ DEMO_WINDOW_FIT = textwrap.dedent("""
 
 
 def _python(code, cache, tmp_path, **env):
-    full = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(SRC), **env)
+    # ADAPTID_AOT=0: the helper's work is to fill numba's cache folder; the kernels
+    # compiled at install (tests/test_aot.py) would serve the command without it
+    full = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(SRC), ADAPTID_AOT="0",
+                **env)
     proc = subprocess.run([sys.executable, "-c", code], env=full, cwd=tmp_path,
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -79,6 +82,7 @@ def test_no_helper_when_the_kernels_are_cached(monkeypatch, tmp_path):
     from adaptid import _config
 
     monkeypatch.delenv("ADAPTID_PREWARM", raising=False)
+    monkeypatch.setenv("ADAPTID_AOT", "0")  # the cache folder alone (test_aot.py: with both)
     monkeypatch.setattr(_config, "CACHE", True)
     monkeypatch.setattr(_config, "CACHE_DIR", str(tmp_path))
     names = ("_window._window_core", "_window.window_run")

@@ -17,7 +17,9 @@ group or others, in a parent that others cannot write either (or that has the
 sticky bit). If it is, :data:`CACHE` is True and kernels are cached there;
 otherwise nothing is cached or loaded from disk and one
 :class:`~adaptid.CompilationCacheWarning` says why (a read-only install with
-an unwritable HOME then works, compiling in every process). A damaged cache
+an unwritable HOME then works, compiling in every process). A kernel missing
+from the cache folder is loaded from the kernels compiled when adaptid was
+installed, if they match (:mod:`adaptid._aot`). A damaged cache
 file (truncated ``.nbc``, garbage ``.nbi``) is treated as a miss: the kernel
 is recompiled and the entry rewritten (:func:`njit`). Loading a cached kernel
 starts numba's runtime only, not its compiler's registries
@@ -169,7 +171,16 @@ def _tolerant_cache():
             if load is None:                # other numba internals: numba's own path
                 return super().load_overload(sig, target_context)
             _start_runtime(target_context)
-            return load(sig, target_context)
+            data = load(sig, target_context)
+            return data if data is not None else self._load_installed(sig, target_context)
+
+        def _load_installed(self, sig, target_context):
+            """A miss: the kernel as compiled when adaptid was installed (:mod:`adaptid._aot`)."""
+            try:
+                from . import _aot
+                return _aot.load(self, sig, target_context)
+            except Exception:  # noqa: BLE001 - a damaged or foreign entry is a miss too
+                return None
 
         def save_overload(self, sig, data):
             try:

@@ -425,7 +425,7 @@ def info(
     verbose: VerboseOpt = False,
     debug: DebugOpt = False,
 ):
-    """Versions of adaptid, Python, NumPy, SciPy, numba; numba's threading layer and target CPU; installed extras."""
+    """Versions of adaptid, Python, NumPy, SciPy, numba; numba's threading layer and target CPU; the kernels compiled at install; installed extras."""
     out = _output(ctx, quiet, verbose, debug, json)
     with _guard(out):
         from ._info import gather_info
@@ -445,6 +445,9 @@ def info(
             ("numba_threading_layer", "numba threading layer (in use)"),
             ("numba_num_threads", "numba threads"), ("numba_target_cpu", "numba target CPU"),
             ("cpu_count", "CPUs"))]
+        aot = data["compiled_at_install"]
+        rows.append(["kernels compiled at install",
+                     f"{aot['kernels']}, used" if aot["used"] else f"not used: {aot['why_not']}"])
         if out.verbose:
             rows.append(["executable", data["executable"]])
         out.print(rich_table("adaptid installation", ["item", "value"], rows, left=2,

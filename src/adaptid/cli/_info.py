@@ -1,4 +1,5 @@
-"""``adaptid info``: versions, numba's threading layer and target CPU, installed extras."""
+"""``adaptid info``: versions, numba's threading layer and target CPU, the kernels compiled
+at install, installed extras."""
 
 from __future__ import annotations
 
@@ -60,6 +61,7 @@ def gather_info() -> dict:
     import scipy
 
     import adaptid
+    from adaptid import _aot
     from adaptid._kernels._vecir import target_cpu
 
     configured = numba.config.THREADING_LAYER
@@ -83,6 +85,8 @@ def gather_info() -> dict:
         "numba_num_threads": int(numba.config.NUMBA_NUM_THREADS),
         # the CPU the kernels are compiled (and cached) for; some tuning follows it
         "numba_target_cpu": target_cpu(),
+        # the kernels compiled when adaptid was installed (adaptid._aot)
+        "compiled_at_install": _aot.status(),
         "cpu_count": os.cpu_count(),
         "extras": _extras(),
     }

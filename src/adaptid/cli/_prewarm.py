@@ -27,12 +27,14 @@ _CHILD = "from {module} import {function}; {function}({args!r})"
 
 
 def _cached(kernel):
-    """Whether numba's cache folder already holds an index for ``kernel``
+    """Whether numba's cache folder, or the kernels compiled at install
+    (:mod:`adaptid._aot`), already hold an index for ``kernel``
     ("<module>.<function>" of adaptid/_kernels, e.g. "_window._window_core")."""
-    from .. import _config
+    from .. import _aot, _config
 
-    folder = _config.CACHE_DIR
-    return bool(folder) and any(glob.glob(os.path.join(glob.escape(folder), kernel + "-*.nbi")))
+    folders = [_config.CACHE_DIR] + ([_aot.folder()] if _aot.enabled() and _aot._ready() else [])
+    return any(bool(folder) and glob.glob(os.path.join(glob.escape(folder), kernel + "-*.nbi"))
+               for folder in folders)
 
 
 def start(module, function, args, *, unless_cached=()):
