@@ -1,7 +1,7 @@
-"""The kernels compiled at install (adaptid._aot): a cold process loads instead of compiling.
+"""The kernels compiled at install (adaptid.cli._aot builds, adaptid._kernels._installed loads): a cold process loads instead of compiling.
 
 Each check runs fresh Python processes on their own empty numba cache folder and an
-AOT folder built here (``python -m adaptid._aot build --tasks rls:3``), so it does
+AOT folder built here (``python -m adaptid.cli._aot build --tasks rls:3``), so it does
 not depend on how this installation was built. numba's dispatcher statistics tell
 whether a kernel was compiled (a miss) or loaded (a hit).
 """
@@ -18,7 +18,8 @@ from pathlib import Path
 import pytest
 
 import adaptid
-from adaptid import _aot
+from adaptid._kernels import _installed
+from adaptid.cli import _aot
 
 SRC = Path(adaptid.__file__).resolve().parents[1]
 
@@ -26,8 +27,7 @@ CHILD = textwrap.dedent("""
     import json
     import numpy as np
     import adaptid
-    from adaptid import _aot
-    from adaptid._kernels import _rls
+    from adaptid._kernels import _installed, _rls
     rng = np.random.default_rng(7)
     Phi = rng.standard_normal((200, 3)); y = Phi @ np.array([1.0, -2.0, 0.5]) + 0.1 * rng.standard_normal(200)
     est = adaptid.RLS(3, forgetting=0.99)
@@ -36,7 +36,7 @@ CHILD = textwrap.dedent("""
     print(json.dumps({"misses": sum(_rls.rls_run.stats.cache_misses.values()),
                       "hits": sum(_rls.rls_run.stats.cache_hits.values()),
                       "theta": [float(v).hex() for v in tr.theta.ravel()] + [float(e).hex()],
-                      "status": _aot.status()}))
+                      "status": _installed.status()}))
 """)
 
 
@@ -65,7 +65,7 @@ def built(tmp_path_factory):
     out = tmp / "aot"
     cache = tmp / "unused"
     cache.mkdir(mode=0o700)
-    proc = subprocess.run([sys.executable, "-m", "adaptid._aot", "build", str(out), "--jobs", "1",
+    proc = subprocess.run([sys.executable, "-m", "adaptid.cli._aot", "build", str(out), "--jobs", "1",
                            "--tasks", "rls:3"], env=_env(tmp, cache), cwd=tmp,
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
@@ -119,12 +119,12 @@ def test_a_folder_others_can_write_is_not_trusted(built, tmp_path, monkeypatch):
     os.chmod(open_, os.stat(open_).st_mode | stat.S_IWOTH)
     monkeypatch.setenv("ADAPTID_AOT_DIR", str(open_))
     monkeypatch.delenv("ADAPTID_AOT", raising=False)
-    st = _aot.status()
+    st = _installed.status()
     assert st["used"] is False and "writable by others" in st["why_not"]
     monkeypatch.setenv("ADAPTID_AOT_DIR", str(built))
-    assert _aot.status()["used"] is True
+    assert _installed.status()["used"] is True
     monkeypatch.setenv("ADAPTID_AOT", "0")
-    assert _aot.status() == {**_aot.status(), "used": False, "why_not": "ADAPTID_AOT=0"}
+    assert _installed.status() == {**_installed.status(), "used": False, "why_not": "ADAPTID_AOT=0"}
 
 
 def test_the_demo_helper_is_not_started_for_installed_kernels(built, tmp_path, monkeypatch):

@@ -19,7 +19,7 @@ otherwise nothing is cached or loaded from disk and one
 :class:`~adaptid.CompilationCacheWarning` says why (a read-only install with
 an unwritable HOME then works, compiling in every process). A kernel missing
 from the cache folder is loaded from the kernels compiled when adaptid was
-installed, if they match (:mod:`adaptid._aot`). A damaged cache
+installed, if they match (:mod:`adaptid._kernels._installed`). A damaged cache
 file (truncated ``.nbc``, garbage ``.nbi``) is treated as a miss: the kernel
 is recompiled and the entry rewritten (:func:`njit`). Loading a cached kernel
 starts numba's runtime only, not its compiler's registries
@@ -131,6 +131,11 @@ def njit(*args, **options):
     return wrap
 
 
+#: ``load(cache, sig, target_context)`` of the kernels compiled at install, or None;
+#: set by :func:`adaptid._kernels._installed.register`.
+INSTALLED = None
+
+
 def _start_runtime(target_context):
     """What loading compiled code from the cache needs of numba's target: its runtime.
 
@@ -175,10 +180,11 @@ def _tolerant_cache():
             return data if data is not None else self._load_installed(sig, target_context)
 
         def _load_installed(self, sig, target_context):
-            """A miss: the kernel as compiled when adaptid was installed (:mod:`adaptid._aot`)."""
+            """A miss: the kernel as compiled when adaptid was installed (:data:`INSTALLED`)."""
+            if INSTALLED is None:
+                return None
             try:
-                from . import _aot
-                return _aot.load(self, sig, target_context)
+                return INSTALLED(self, sig, target_context)
             except Exception:  # noqa: BLE001 - a damaged or foreign entry is a miss too
                 return None
 

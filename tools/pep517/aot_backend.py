@@ -1,12 +1,12 @@
 """adaptid's build backend: setuptools', plus the kernels compiled ahead of time.
 
 ``pip install`` (a wheel or an editable install) builds through this module. Before
-setuptools builds, it runs ``python -m adaptid._aot build`` on the source tree in
+setuptools builds, it runs ``python -m adaptid.cli._aot build`` on the source tree in
 pip's build environment, which has numba, NumPy and SciPy (``[build-system]
 requires`` in pyproject.toml): numba's cache files of the kernels that first calls
 need go to ``src/adaptid/_kernels/_aot`` (package data, and the source folder of an
 editable install). At run time they are used only when they match the installed
-numba, the kernels' sources and the CPU (see ``adaptid/_aot.py``); otherwise numba
+numba, the kernels' sources and the CPU (see ``adaptid/_kernels/_installed.py``); otherwise numba
 compiles as it would without them.
 
 ``ADAPTID_AOT_BUILD=0`` skips the step (the install is then as before: every kernel
@@ -37,7 +37,7 @@ def _precompile():
           "ADAPTID_AOT_BUILD=0 skips it)", file=sys.stderr, flush=True)
     try:
         code = (f"import sys; sys.path[:0] = {[str(SRC)] + [p for p in sys.path if p]!r}; "
-                "from adaptid._aot import main; sys.exit(main(['build', sys.argv[1]]))")
+                "from adaptid.cli._aot import main; sys.exit(main(['build', sys.argv[1]]))")
         proc = subprocess.run([sys.executable, "-c", code, str(OUT)], cwd=str(ROOT), timeout=1800, stdin=subprocess.DEVNULL,
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         ok = proc.returncode == 0

@@ -35,8 +35,10 @@ __all__ = ["Entries", "RLS", "STRATEGY", "KALMAN", "WINDOW", "LMS", "NLMS", "RLS
 from ._cache import install as _install_cache
 from ._dims import tags
 from ._inline import install as _install_inline
+from ._installed import register as _register_installed
 
 _install_cache()  # before any kernel module is imported (they are submodules of this package)
+_register_installed()  # a cache miss loads the kernel compiled at install, if it matches
 _install_inline()  # numba's inliner copies an inlined IR once, not once per block
 
 

@@ -61,7 +61,7 @@ def gather_info() -> dict:
     import scipy
 
     import adaptid
-    from adaptid import _aot
+    from adaptid._kernels import _installed
     from adaptid._kernels._vecir import target_cpu
 
     configured = numba.config.THREADING_LAYER
@@ -85,8 +85,8 @@ def gather_info() -> dict:
         "numba_num_threads": int(numba.config.NUMBA_NUM_THREADS),
         # the CPU the kernels are compiled (and cached) for; some tuning follows it
         "numba_target_cpu": target_cpu(),
-        # the kernels compiled when adaptid was installed (adaptid._aot)
-        "compiled_at_install": _aot.status(),
+        # the kernels compiled when adaptid was installed (adaptid._kernels._installed)
+        "compiled_at_install": _installed.status(),
         "cpu_count": os.cpu_count(),
         "extras": _extras(),
     }

@@ -28,11 +28,13 @@ _CHILD = "from {module} import {function}; {function}({args!r})"
 
 def _cached(kernel):
     """Whether numba's cache folder, or the kernels compiled at install
-    (:mod:`adaptid._aot`), already hold an index for ``kernel``
+    (:mod:`adaptid._kernels._installed`), already hold an index for ``kernel``
     ("<module>.<function>" of adaptid/_kernels, e.g. "_window._window_core")."""
-    from .. import _aot, _config
+    from .. import _config
+    from .._kernels import _installed
 
-    folders = [_config.CACHE_DIR] + ([_aot.folder()] if _aot.enabled() and _aot._ready() else [])
+    folders = [_config.CACHE_DIR] + ([_installed.folder()]
+                                     if _installed.enabled() and _installed._ready() else [])
     return any(bool(folder) and glob.glob(os.path.join(glob.escape(folder), kernel + "-*.nbi"))
                for folder in folders)
 

@@ -1,37 +1,19 @@
-"""Kernels compiled when adaptid is installed (ahead of time), loaded on a cache miss.
+"""Compile the kernels that first calls need, for ``pip install`` (ahead of time).
 
-numba compiles a kernel the first time a process calls it with new argument
-types and keeps the machine code in its cache folder (:mod:`adaptid._config`).
-On a fresh install that folder is empty, and the first ``RLS(n).run`` or
-``adaptid demo`` spends most of its time in numba's compiler. So ``pip
-install`` compiles the kernels that first calls need, once, at build time
-(the build backend ``tools/pep517/aot_backend.py`` runs ``python -m
-adaptid._aot build``), and ships numba's cache files of them in
-``adaptid/_kernels/_aot`` with a ``MANIFEST.json``.
+``python -m adaptid.cli._aot build [OUT]`` runs :data:`TASKS` in fresh processes,
+each on its own empty numba cache folder, and merges numba's cache files of
+adaptid's kernels into one folder (default: ``adaptid/_kernels/_aot``) with a
+``MANIFEST.json``. The build backend ``tools/pep517/aot_backend.py`` runs it
+when pip builds adaptid; :mod:`adaptid._kernels._installed` loads the entries
+on a cache miss, when they match.
 
-At run time a miss in the cache folder falls back to that folder
-(:func:`load`, called by the cache of :func:`adaptid._config.njit`), when
-
-* ``ADAPTID_AOT`` is not ``0`` (``ADAPTID_AOT_DIR`` names another folder);
-* the folder is trusted as a cache folder is (owned by the user or root,
-  not writable by group or others: numba's cache files are pickles);
-* its manifest names this numba version and the kernels' source stamp
-  (:data:`adaptid._kernels._cache.SOURCE_STAMP`): an edit to any kernel
-  file, or another numba, makes every entry stale;
-* and the entry's key matches, which numba builds from the signature, the
-  target CPU (name and features) and the function's bytecode: code compiled
-  on another kind of machine is never used.
-
-Anything else is a miss, and numba compiles as it would without this
-folder. What the folder holds is exactly what numba compiled from the same
-source for the same signatures; nothing is changed on the way.
-
-The kernels (:data:`TASKS`): the default form of :class:`adaptid.RLS` at
-every size it is specialised for (n = 1..64: U-D up to 15, the square-root
-form above) and the generic kernel above (``run`` and ``update`` share the
-kernel), and what ``adaptid demo`` runs: the simulated
-motor, the CLI's size-generic RLS, sliding window and Kalman kernels, and the
-recursive residuals of its report.
+The kernels: the default form of :class:`adaptid.RLS` at every size it is
+specialised for (n = 1..64: U-D up to 15, the square-root form above) and the
+generic kernel above (``run`` and ``update`` share the kernel), and what
+``adaptid demo`` runs: the simulated motor, the CLI's size-generic RLS,
+sliding window and Kalman kernels, and the recursive residuals of its report.
+They are compiled by calling the public functions as a user does, so the
+signatures are those of first calls. Needs numpy, scipy and numba only.
 """
 
 from __future__ import annotations
@@ -45,100 +27,10 @@ import sys
 import tempfile
 import time
 
-__all__ = ["AOT_DIR", "TASKS", "build", "enabled", "folder", "load", "status"]
+from .._kernels import _installed
 
-#: Where the installed kernels are (inside the package: as trusted as its code).
-AOT_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_kernels", "_aot")
-_MANIFEST = "MANIFEST.json"
+__all__ = ["TASKS", "build", "main"]
 
-
-def folder() -> str:
-    """:data:`AOT_DIR`, or ``ADAPTID_AOT_DIR`` when set (read at each call)."""
-    return os.environ.get("ADAPTID_AOT_DIR") or AOT_DIR
-
-
-def enabled() -> bool:
-    """False when ``ADAPTID_AOT=0`` (read at each call: tests switch it)."""
-    return os.environ.get("ADAPTID_AOT", "1") != "0"
-
-
-_READY = {}
-
-
-def _manifest(where=None):
-    try:
-        with open(os.path.join(where or folder(), _MANIFEST), encoding="utf-8") as fh:
-            return json.load(fh)
-    except (OSError, ValueError):
-        return None
-
-
-def _ready():
-    """The manifest if the folder can be used by this process, else None (memoised)."""
-    where = folder()
-    if where in _READY:
-        return _READY[where]
-    import numba
-
-    from ._config import _untrusted
-    from ._kernels._cache import SOURCE_STAMP
-
-    man = _manifest(where)
-    ok = (man is not None and _untrusted(where) is None
-          and man.get("numba") == numba.__version__ and man.get("stamp") == SOURCE_STAMP)
-    _READY[where] = man if ok else None
-    return _READY[where]
-
-
-def load(cache, sig, target_context):
-    """The installed compile result of ``cache``'s function for ``sig``, or None.
-
-    ``cache`` is numba's ``FunctionCache`` of a kernel (its locator one of
-    :mod:`adaptid._kernels._cache`'s); the entry is read as numba reads its own
-    cache (``IndexDataCacheFile``) and rebuilt by the cache's own ``rebuild``.
-    """
-    if not enabled() or _ready() is None:
-        return None
-    from numba.core.caching import IndexDataCacheFile
-
-    from ._kernels._cache import _KernelsLocator
-
-    impl = cache._impl
-    if not isinstance(impl.locator, _KernelsLocator):
-        return None
-    store = IndexDataCacheFile(cache_path=folder(), filename_base=impl.filename_base,
-                               source_stamp=impl.locator.get_source_stamp())
-    data = store.load(cache._index_key(sig, target_context.codegen()))
-    return None if data is None else impl.rebuild(target_context, data)
-
-
-def status() -> dict:
-    """What ``adaptid info`` shows: the folder, whether it is used, and why not."""
-    import numba
-
-    from ._kernels._cache import SOURCE_STAMP
-
-    man = _manifest()
-    out = {"folder": folder(), "enabled": enabled(), "kernels": 0, "used": False}
-    if man is None:
-        out["why_not"] = "not built (pip install builds it; ADAPTID_AOT_BUILD=0 skips it)"
-        return out
-    out["kernels"] = int(man.get("entries", 0))
-    out["seconds_to_build"] = man.get("seconds")
-    if man.get("numba") != numba.__version__:
-        out["why_not"] = f"built with numba {man.get('numba')}, this is numba {numba.__version__}"
-    elif man.get("stamp") != SOURCE_STAMP:
-        out["why_not"] = "built from other kernel sources (edited since the install)"
-    elif not out["enabled"]:
-        out["why_not"] = "ADAPTID_AOT=0"
-    elif _ready() is None:
-        out["why_not"] = "the folder is writable by others or belongs to another user"
-    else:
-        out["used"] = True
-    return out
-
-
-# ---------------------------------------------------------------------- build
 
 def _rls(n):
     """RLS(n) with its default form, as a user starts it: ``run``, then ``update``."""
@@ -157,7 +49,7 @@ def _demo():
     """``adaptid demo``'s kernels, with the demo's array types (no pandas needed)."""
     import numpy as np
 
-    from adaptid.cli._demo import DEMO_METHODS, compile_kernels
+    from ._demo import DEMO_METHODS, compile_kernels
     from adaptid.datasets._dc_motor import MOTOR_PARAMETERS, _motor_states
     from adaptid.diagnostics import recursive_residuals
 
@@ -198,7 +90,7 @@ def _merge(folders, out):
     import numba
     from numba.core.caching import IndexDataCacheFile
 
-    from ._kernels._cache import SOURCE_STAMP
+    from .._kernels._cache import SOURCE_STAMP
 
     stamp = ("adaptid-kernels", SOURCE_STAMP)
     merged = {}  # filename base -> {key: data bytes}
@@ -233,7 +125,7 @@ def _merge(folders, out):
 
 
 # sys.path as the parent has it (pip's build environment resets PYTHONPATH's effect)
-_WORKER = "import sys; sys.path[:0] = {path!r}; from adaptid._aot import main; sys.exit(main({args!r}))"
+_WORKER = "import sys; sys.path[:0] = {path!r}; from adaptid.cli._aot import main; sys.exit(main({args!r}))"
 
 
 def build(out=None, *, jobs=None, tasks=None, quiet=False) -> dict:
@@ -245,10 +137,10 @@ def build(out=None, *, jobs=None, tasks=None, quiet=False) -> dict:
     """
     import numba
 
-    from ._kernels._cache import SOURCE_STAMP
+    from .._kernels._cache import SOURCE_STAMP
 
     t0 = time.perf_counter()
-    out = out or folder()
+    out = out or _installed.folder()
     jobs = max(1, int(jobs or min(os.cpu_count() or 1, 4)))
     groups = _split(TASKS if tasks is None else [(t, 1.0) for t in tasks], jobs)
     parent = os.path.dirname(os.path.abspath(out))
@@ -274,11 +166,11 @@ def build(out=None, *, jobs=None, tasks=None, quiet=False) -> dict:
         man = {"numba": numba.__version__, "stamp": SOURCE_STAMP, "entries": count,
                "python": list(sys.version_info[:2]), "tasks": [n for g in groups for n in g],
                "seconds": round(time.perf_counter() - t0, 1)}
-        with open(os.path.join(stage, _MANIFEST), "w", encoding="utf-8") as fh:
+        with open(os.path.join(stage, _installed.MANIFEST), "w", encoding="utf-8") as fh:
             json.dump(man, fh, indent=1)
         shutil.rmtree(out, ignore_errors=True)
         os.replace(stage, out)
-    _READY.clear()
+    _installed._READY.clear()
     return man
 
 
@@ -293,16 +185,16 @@ def main(argv=None):
     if argv[:1] == ["build"]:
         import argparse
 
-        ap = argparse.ArgumentParser(prog="python -m adaptid._aot build")
+        ap = argparse.ArgumentParser(prog="python -m adaptid.cli._aot build")
         ap.add_argument("out", nargs="?", default=None)
         ap.add_argument("--jobs", type=int, default=None)
         ap.add_argument("--tasks", nargs="+", default=None, help="e.g. rls:3 demo")
         args = ap.parse_args(argv[1:])
         man = build(args.out, jobs=args.jobs, tasks=args.tasks)
-        print(f"adaptid AOT: {man['entries']} compiled kernels in {args.out or folder()} "
+        print(f"adaptid AOT: {man['entries']} compiled kernels in {args.out or _installed.folder()} "
               f"({man['seconds']} s)", flush=True)
         return 0
-    print("usage: python -m adaptid._aot build [OUT] [--jobs J] [--tasks T ...]", file=sys.stderr)
+    print("usage: python -m adaptid.cli._aot build [OUT] [--jobs J] [--tasks T ...]", file=sys.stderr)
     return 2
 
 
