@@ -16,6 +16,12 @@ way: wall-clock seconds of the whole command with an empty cache folder
 
 ``--src`` runs another checkout's ``src`` (e.g. the commit before a change)
 in the same way, for a same-run comparison.
+
+"Cold" is a fresh install: numba's cache folder is empty, and the kernels
+compiled when pip built adaptid (``adaptid/_kernels/_aot``,
+:mod:`adaptid._kernels._installed`) are used when they match, as for a user.
+``--jit`` sets ``ADAPTID_AOT=0`` in the children: every kernel compiled from
+nothing, as without that build step. The header line says which.
 """
 
 import argparse
@@ -44,8 +50,11 @@ print(json.dumps({"import": t1 - t0, "run": t2 - t1, "update": t3 - t2}))
 """
 
 
+AOT = {}  # ADAPTID_AOT for the children (set from --jit)
+
+
 def measure(n, src, cache):
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache, ADAPTID_KERNEL_DIR=cache)
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, ADAPTID_KERNEL_DIR=cache, **AOT)
     if src:
         env["PYTHONPATH"] = src + os.pathsep + env.get("PYTHONPATH", "")
     out = subprocess.run([sys.executable, "-c", CHILD, str(n)], env=env, check=True,
@@ -55,7 +64,7 @@ def measure(n, src, cache):
 
 def measure_demo(src, cache):
     import time
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache, ADAPTID_KERNEL_DIR=cache)
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, ADAPTID_KERNEL_DIR=cache, **AOT)
     if src:
         env["PYTHONPATH"] = src + os.pathsep + env.get("PYTHONPATH", "")
     with tempfile.TemporaryDirectory(prefix="adaptid-demo-") as out:
@@ -73,7 +82,17 @@ def main():
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--src", default=None, help="another checkout's src folder")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--jit", action="store_true",
+                    help="ADAPTID_AOT=0: ignore the kernels compiled at install")
     args = ap.parse_args()
+    if args.jit:
+        AOT["ADAPTID_AOT"] = "0"
+    status = json.loads(subprocess.run(
+        [sys.executable, "-c", "import json; from adaptid._kernels import _installed; "
+         "print(json.dumps(_installed.status()))"], env=dict(os.environ, **AOT), check=True,
+        capture_output=True, text=True).stdout)
+    print("kernels compiled at install: " + (f"{status['kernels']}, used" if status["used"]
+          else f"not used ({status['why_not']})"), flush=True)
     rows = []
     for n in args.n:
         cold, warm = [], []
