@@ -11,7 +11,9 @@ The kernels: the default form of :class:`adaptid.RLS` at every size it is
 specialised for (n = 1..64: U-D up to 15, the square-root form above) and the
 generic kernel above (``run`` and ``update`` share the kernel), and what
 ``adaptid demo`` runs: the simulated motor, the CLI's size-generic RLS,
-sliding window and Kalman kernels, and the recursive residuals of its report.
+sliding window and Kalman kernels, and the recursive residuals of its report;
+and the constancy tests of ``adaptid fit``'s report (CUSUM, F statistics, break
+dating).
 They are compiled by calling the public functions as a user does, so the
 signatures are those of first calls. Needs numpy, scipy and numba only.
 """
@@ -59,15 +61,29 @@ def _demo():
     recursive_residuals(Phi, Phi @ np.ones(3))
 
 
+def _fit_report():
+    """The constancy tests of ``adaptid fit``'s report (recursive residuals, CUSUM,
+    F statistics, break dating), with the command's array types."""
+    import numpy as np
+
+    from ._engine import _cusum
+
+    rng = np.random.default_rng(0)
+    Phi = rng.standard_normal((80, 3))
+    _cusum(Phi, Phi @ np.ones(3) + 0.1 * rng.standard_normal(80))
+
+
 #: (name, relative cost): what the build compiles. The costs (seconds of compile,
 #: roughly) only balance the work between the build's processes.
-TASKS = ([("demo", 16.0)] + [(f"rls:{n}", 2.0) for n in range(1, 17)]
+TASKS = ([("demo", 16.0), ("fit", 3.0)] + [(f"rls:{n}", 2.0) for n in range(1, 17)]
          + [(f"rls:{n}", 3.0) for n in range(17, 66)])
 
 
 def _run_task(name):
     if name == "demo":
         _demo()
+    elif name == "fit":
+        _fit_report()
     elif name.startswith("rls:"):
         _rls(int(name[4:]))
     else:
