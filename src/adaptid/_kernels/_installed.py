@@ -6,8 +6,8 @@ On a fresh install that folder is empty, and the first ``RLS(n).run`` or
 ``adaptid demo`` spends most of its time in numba's compiler. So ``pip
 install`` compiles the kernels that first calls need, once, at build time
 (the build backend ``tools/pep517/aot_backend.py`` runs ``python -m
-adaptid.cli._aot build``, which lists them), and ships numba's cache files of them in
-``adaptid/_kernels/_aot`` with a ``MANIFEST.json``.
+adaptid.cli._aot build``, which lists them), and ships numba's cache files of
+them in ``adaptid/_kernels/_aot`` with a ``MANIFEST.json``.
 
 At run time a miss in the cache folder falls back to that folder
 (:func:`load`, which :func:`register` hands to the cache of
@@ -26,7 +26,6 @@ At run time a miss in the cache folder falls back to that folder
 Anything else is a miss, and numba compiles as it would without this
 folder. What the folder holds is exactly what numba compiled from the same
 source for the same signatures; nothing is changed on the way.
-
 """
 
 from __future__ import annotations
