@@ -144,7 +144,7 @@ def _merge(folders, out):
 _WORKER = "import sys; sys.path[:0] = {path!r}; from adaptid.cli._aot import main; sys.exit(main({args!r}))"
 
 
-def build(out=None, *, jobs=None, tasks=None, quiet=False) -> dict:
+def build(out=None, *, jobs=None, tasks=None) -> dict:
     """Compile :data:`TASKS` in ``jobs`` fresh processes (each with its own empty
     numba cache folder) and store numba's cache files of them in ``out``.
 
@@ -171,21 +171,25 @@ def build(out=None, *, jobs=None, tasks=None, quiet=False) -> dict:
             procs.append((subprocess.Popen([sys.executable, "-c", _WORKER.format(
                                                path=[p for p in sys.path if p],
                                                args=["worker", *names])],
-                                           env=env, stdin=subprocess.DEVNULL,
-                                           stdout=subprocess.DEVNULL if quiet else None), names))
+                                           env=env, stdin=subprocess.DEVNULL), names))
         failed = [names for p, names in procs if p.wait() != 0]
         if failed:
             raise RuntimeError(f"adaptid AOT build: the process compiling {failed[0]} failed")
         stage = tempfile.mkdtemp(prefix=".aot-", dir=parent)
-        os.chmod(stage, 0o755)
-        count = _merge([os.path.join(tmp, f"cache{i}") for i in range(len(groups))], stage)
-        man = {"numba": numba.__version__, "stamp": SOURCE_STAMP, "entries": count,
-               "python": list(sys.version_info[:2]), "tasks": [n for g in groups for n in g],
-               "seconds": round(time.perf_counter() - t0, 1)}
-        with open(os.path.join(stage, _installed.MANIFEST), "w", encoding="utf-8") as fh:
-            json.dump(man, fh, indent=1)
-        shutil.rmtree(out, ignore_errors=True)
-        os.replace(stage, out)
+        try:
+            os.chmod(stage, 0o755)
+            count = _merge([os.path.join(tmp, f"cache{i}") for i in range(len(groups))], stage)
+            man = {"numba": numba.__version__, "stamp": SOURCE_STAMP, "entries": count,
+                   "python": list(sys.version_info[:2]),
+                   "tasks": [n for g in groups for n in g],
+                   "seconds": round(time.perf_counter() - t0, 1)}
+            with open(os.path.join(stage, _installed.MANIFEST), "w", encoding="utf-8") as fh:
+                json.dump(man, fh, indent=1)
+            shutil.rmtree(out, ignore_errors=True)
+            os.replace(stage, out)
+        except BaseException:
+            shutil.rmtree(stage, ignore_errors=True)  # no half-written folder left beside out
+            raise
     _installed._READY.clear()
     return man
 
