@@ -28,13 +28,14 @@ CHILD = textwrap.dedent("""
     import numpy as np
     import adaptid
     from adaptid._kernels import _installed, _rls
+    stats = lambda f: (sum(f.stats.cache_misses.values()), sum(f.stats.cache_hits.values()))
     rng = np.random.default_rng(7)
     Phi = rng.standard_normal((200, 3)); y = Phi @ np.array([1.0, -2.0, 0.5]) + 0.1 * rng.standard_normal(200)
     est = adaptid.RLS(3, forgetting=0.99)
     tr = est.run(Phi, y)
     e = est.update(Phi[0], y[0])
-    print(json.dumps({"misses": sum(_rls.rls_run.stats.cache_misses.values()),
-                      "hits": sum(_rls.rls_run.stats.cache_hits.values()),
+    print(json.dumps({"misses": stats(_rls.rls_run)[0], "hits": stats(_rls.rls_run)[1],
+                      "step": [est._step.step_ep is not None, *stats(_rls.rls_step)],
                       "theta": [float(v).hex() for v in tr.theta.ravel()] + [float(e).hex()],
                       "status": _installed.status()}))
 """)
@@ -87,6 +88,10 @@ def test_a_cold_process_loads_the_installed_kernel(built, compiled, tmp_path):
     assert got["misses"] == 0 and got["hits"] >= 1            # loaded, not compiled
     assert compiled["misses"] >= 1 and compiled["hits"] == 0  # the control compiled
     assert got["theta"] == compiled["theta"]                  # the same bits
+    # update took its narrow step entry from the folder; the control (nothing installed
+    # or cached) ran its update through run's entry, to the same bits (theta[-1])
+    assert got["step"] == [True, 0, 1]
+    assert compiled["step"] == [False, 0, 0]
 
 
 def test_a_stale_manifest_is_not_used(built, tmp_path):

@@ -5,7 +5,8 @@
   :mod:`._lms` — one
   module per recursive algorithm, each with the three entry points of one
   common signature (``run``, ``run_batched``, ``run_segments``; ``update`` is
-  a run of length 1);
+  a run of length 1, or for RLS's fast forms a step through the narrow entry
+  of :mod:`._step` when that is compiled);
 * :mod:`._diffuse`, :mod:`._diffuse_kalman` — the exact diffuse start
   (``P0="diffuse"``) of RLS, the window and the Kalman filter, a prologue
   before the ordinary streams, with the same three entry points;
@@ -17,6 +18,9 @@
   (``RLS(form=...)``), same three entry points; their sweeps for a
   compile-time n are LLVM vector IR (:mod:`._covsweep`, helpers in
   :mod:`._vecir`);
+* :mod:`._step` — the packed sample of ``update``'s narrow step entry
+  (``rls_step``, ``potter_step``, ``cov_step``) and the look-up that takes it
+  only when it costs no compilation;
 * :mod:`._dims` — the tags that make n and p compile-time constants
   (specialisation per n without generating source), :mod:`._scratch` —
   stack-allocated work arrays.
@@ -45,22 +49,26 @@ _install_inline()  # numba's inliner copies an inlined IR once, not once per blo
 class Entries(NamedTuple):
     """The compiled entry points of one algorithm (one signature for all).
 
-    There is no single-step entry: one update is a run of length 1 through
-    ``run``, with arguments of the types ``run`` is given
-    (:meth:`adaptid.estimators._engine.RecursiveEstimator.update`), so a step
-    compiles nothing more and is bit for bit a step of ``run``.
+    ``step`` (RLS's fast forms only, else None) takes one packed sample
+    (:mod:`._step`); ``update`` calls it only when that costs no compilation
+    (compiled at install, or already cached) and otherwise runs a run of length 1
+    through ``run``, with arguments of the types ``run`` is given
+    (:meth:`adaptid.estimators._engine.RecursiveEstimator.update`). Either way a
+    step is bit for bit a step of ``run``.
     """
 
     run: object
     run_batched: object
     run_segments: object
+    step: object = None
 
 
 def _entries(module, prefix):
     import importlib
     mod = importlib.import_module(f"adaptid._kernels.{module}")
     return Entries(*(getattr(mod, f"{prefix}_{what}")
-                     for what in ("run", "run_batched", "run_segments")))
+                     for what in ("run", "run_batched", "run_segments")),
+                   step=getattr(mod, f"{prefix}_step", None))
 
 
 def __getattr__(name):

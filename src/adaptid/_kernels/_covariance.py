@@ -47,8 +47,8 @@ eigen-decomposition (LAPACK inside the kernel, no better here).
 
 Return code: the first sample after which a diagonal entry of P passed the
 windup threshold ``opt[0]`` or was not finite (≥ 0); else ``−2 − k`` if P was
-repaired, k the first repaired sample; else −1 (``update`` is a run of length 1
-and reads the same code).
+repaired, k the first repaired sample; else −1 (``update``, a run of length 1 or
+:func:`cov_step`, reads the same code).
 """
 
 import numpy as np
@@ -60,6 +60,7 @@ from ._bierman import _segment_start, _views
 from ._covsweep import VECTOR_SWEEP_MAX, cov_sweep_n, quad_n, theta_step, vector_quad
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
+from ._step import views
 from ._vecir import fma
 
 EPS = 2.220446049250313e-16
@@ -370,6 +371,14 @@ def _diag_inside(P, dthr, NP):
 def cov_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N steps; returns the code described in the module docstring."""
     return _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, opt[0], dim(ntag), dim(ptag))
+
+
+@njit(**NJIT)
+def cov_step(S, W, ntag, ptag):
+    """One step on the packed sample ``W`` (:mod:`._step`), bit for bit a step of
+    :func:`cov_run`; returns its code."""
+    Phi, Y, lam, w, Th, E, skipped, dthr = views(W, ntag, ptag)
+    return _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, dim(ntag), dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)

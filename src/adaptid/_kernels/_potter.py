@@ -63,6 +63,7 @@ from .._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 from ._bierman import _segment_start, _views
 from ._dims import dim
 from ._scratch import scratch, scratch2_lines
+from ._step import views
 from ._vecir import LANES, _lanes, _ptr, _splat, lane_tree, loop_end, scalar_fma, store_vecs, \
     vector_blocks, vector_fmas
 
@@ -322,6 +323,14 @@ def potter_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N steps; returns the first sample after which a diagonal entry of P left
     (0, ``opt[0]``), or -1."""
     return _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, opt[0], dim(ntag), dim(ptag))
+
+
+@njit(**NJIT)
+def potter_step(S, W, ntag, ptag):
+    """One step on the packed sample ``W`` (:mod:`._step`), bit for bit a step of
+    :func:`potter_run`; returns its code."""
+    Phi, Y, lam, w, Th, E, skipped, dthr = views(W, ntag, ptag)
+    return _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, dim(ntag), dim(ptag))
 
 
 @njit(**NJIT_PARALLEL)

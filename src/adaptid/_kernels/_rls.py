@@ -26,6 +26,7 @@ from ._bierman import _bierman_apply_pairs, _bierman_prep, _copy_factor, _segmen
 from ._dims import dim
 from ._rollstats import rls_hook, sub
 from ._scratch import scratch, scratch2, small_scratch
+from ._step import views
 
 @njit(**NJIT)
 def _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag):
@@ -114,6 +115,14 @@ def rls_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     """N RLS steps; returns the first sample index where a pivot D_i lost
     positivity or passed the windup threshold ``opt[0]``, or -1."""
     return _rls_body(S, Phi, Y, lam, w, Th, E, skipped, St, opt[0], ntag, ptag)
+
+
+@njit(**NJIT)
+def rls_step(S, W, ntag, ptag):
+    """One RLS step on the packed sample ``W`` (:mod:`._step`), bit for bit a step of
+    :func:`rls_run`; returns its code."""
+    Phi, Y, lam, w, Th, E, skipped, dthr = views(W, ntag, ptag)
+    return _rls_body(S, Phi, Y, lam, w, Th, E, skipped, None, dthr, ntag, ptag)
 
 
 @njit(**NJIT_PARALLEL)

@@ -1,0 +1,85 @@
+r"""One sample through a narrow compiled entry: what ``update`` calls.
+
+``run``'s entry takes fourteen arguments, eleven of them arrays; calling a
+compiled numba function converts ("unboxes") every array argument, about 55 ns
+each on the 2-core test machine. For one sample that conversion costs more than
+the arithmetic. A step entry takes two arrays and the two size tags::
+
+    step(S, W, ntag, ptag) -> code
+
+``S`` is the estimator's state vector, as for ``run``; ``W`` (shape
+``(1, 1, K)``) packs everything else of one sample. Its row ``R = W[0, 0]`` holds,
+with n = dim(ntag) and p = dim(ptag):
+
+=====================  ===========================================
+``R[0:n]``             φ
+``R[n:n+p]``           y
+``R[n+p]``             λ (the forgetting factor of this step)
+``R[n+p+1]``           w (the sample weight)
+``R[n+p+2:n+2p+2]``    ε, the a-priori error (written by the step)
+``R[n+2p+2]``          the threshold ``opt[0]`` of ``run``
+``R[n+2p+3]``          1.0 when the sample was skipped (written)
+=====================  ===========================================
+
+:func:`views` turns ``W`` into the one-sample arguments of a stream body
+(Φ (1, n), y (1, p), λ, w, an empty trajectory, E (1, p), skipped), and a
+module's ``*_step`` passes them to the same inlined body its ``run`` inlines.
+So a step is bit for bit a step of ``run`` (the tests compare them after every
+sample). It is a second compiled function per kernel and size, though, so
+``update`` uses it only when it costs no compilation (:func:`entry_point`):
+already compiled in this process, in numba's cache folder, or compiled when
+adaptid was installed (:mod:`._installed`). Otherwise ``update`` is a run of
+length 1 through ``run``'s compiled code, as before.
+"""
+
+from .._config import NJIT_INLINE, njit
+from ._dims import dim
+
+__all__ = ["views", "width", "entry_point"]
+
+
+def width(n, p):
+    """The length K of the packed row for n parameters and p outputs."""
+    return n + 2 * p + 4
+
+
+@njit(**NJIT_INLINE)
+def views(W, ntag, ptag):
+    """The one-sample arguments of a stream body over the packed sample ``W``.
+
+    Returns (Phi, Y, lam, w, Th, E, skipped, threshold): views of ``W`` (no
+    allocation); ``Th`` has no rows, so the body stores no trajectory.
+    """
+    n = dim(ntag)
+    p = dim(ptag)
+    R = W[0]
+    return (R[:, :n], R[:, n:n + p], R[0, n + p:n + p + 1], R[0, n + p + 1:n + p + 2], W[:0],
+            R[:, n + p + 2:n + 2 * p + 2], R[0, n + 2 * p + 3:n + 2 * p + 4], R[0, n + 2 * p + 2])
+
+
+def entry_point(dispatcher, args):
+    """The compiled ``dispatcher`` for ``args`` if that costs no compilation, else None.
+
+    Looks in this process's compiled overloads, then in the cache (numba's
+    folder, then the kernels compiled at install); a hit is added to the
+    dispatcher as numba's own ``compile`` adds one. None with
+    ``NUMBA_DISABLE_JIT=1`` or when numba's internals differ from what this expects.
+    """
+    try:
+        import numba
+        from numba.core.compiler_lock import global_compiler_lock
+        key = tuple(numba.typeof(a) for a in args)
+        with global_compiler_lock:  # as numba's own ``Dispatcher.compile``
+            found = dispatcher.overloads.get(key)
+            if found is None:
+                cres = dispatcher._cache.load_overload(key, dispatcher.targetctx)
+                if cres is None:
+                    return None
+                dispatcher._cache_hits[key] += 1
+                dispatcher.targetctx.insert_user_function(cres.entry_point, cres.fndesc,
+                                                          [cres.library])
+                dispatcher.add_overload(cres)
+                found = dispatcher.overloads[key]
+        return found.entry_point
+    except Exception:  # noqa: BLE001 - NUMBA_DISABLE_JIT, numba internals that differ
+        return None
