@@ -259,6 +259,37 @@ def test_run_equals_updates_bit_for_bit(rng, make):
     assert a.n_updates == b.n_updates == 300
 
 
+@pytest.mark.parametrize("form,n", [("ud", 4), ("sqrt", 17), ("covariance", 3)])
+def test_the_step_kernels_are_steps_of_run(rng, form, n):
+    """update's narrow step entries (adaptid._kernels._step), called on packed samples
+    one by one, give run's state and errors bit for bit: compiled, and in CI's
+    NUMBA_DISABLE_JIT=1 step also as plain Python."""
+    from adaptid._kernels import _step
+    N = 60
+    Phi, y, _ = make_data(rng, N, n)
+    Phi[7, 0] = np.nan  # skipped
+    w = rng.uniform(0.5, 2.0, N)
+    w[11] = 0.0
+    lam = rng.uniform(0.95, 1.0, N)
+    ref = adaptid.RLS(n, forgetting=0.98, form=form, nan_policy="skip")
+    tr = ref.run(Phi, y, weights=w, forgetting=lam)
+    est = adaptid.RLS(n, forgetting=0.98, form=form, nan_policy="skip")
+    S = est._S.copy()
+    W = np.zeros((1, 1, _step.width(n, 1)))
+    R = W[0, 0]
+    R[n + 4] = est._opt[0]  # the threshold
+    errors, skipped = [], []
+    for k in range(N):
+        R[:n], R[n], R[n + 1], R[n + 2] = Phi[k], y[k], lam[k], w[k]
+        est._kern.step(S, W, est._ntag, est._ptag)
+        errors.append(R[n + 3])
+        skipped.append(R[n + 5] == 1.0)
+        R[n + 5] = 0.0
+    assert np.array_equal(S, ref._S)
+    assert np.array_equal(np.array(errors), tr.error, equal_nan=True)
+    assert np.array_equal(np.array(skipped), tr.skipped) and skipped[7]
+
+
 @THREE
 def test_updates_and_short_runs_compile_nothing_after_a_run(rng, make):
     """One compiled signature serves run, update and runs of 0 or 1 sample, with
