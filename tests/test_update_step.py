@@ -158,3 +158,24 @@ def test_the_step_entry_is_taken_only_when_it_costs_no_compilation(monkeypatch):
     est.reset()  # a new state array: looked up again
     est.update(Phi[0], y[0])
     assert len(steps()) == 2
+
+
+def test_a_new_windup_threshold_reaches_the_step_entry(monkeypatch):
+    """windup_threshold set between updates: the packed sample carries the new one."""
+    from adaptid._kernels import _step
+    Phi, y, _, _ = _data(4, 1, N=40, seed=5)
+
+    def messages(est):
+        for k in range(20):
+            est.update(Phi[k], y[k])
+        est.windup_threshold = 1e-3  # below the pivots of P: the next update passes it
+        return _messages(est, Phi[20:], y[20:], CovarianceWindupWarning)
+
+    fast = adaptid.RLS(4, forgetting=0.99)
+    assert fast.compile_update()
+    got = messages(fast)
+    assert fast._step.step_ep is not None and got and "sample 21" in got[0]
+    monkeypatch.setattr(_step, "entry_point", lambda disp, args: None)
+    slow = adaptid.RLS(4, forgetting=0.99)
+    assert messages(slow) == got
+    _same(fast, slow)
