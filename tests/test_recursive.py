@@ -275,16 +275,17 @@ def test_the_step_kernels_are_steps_of_run(rng, form, n):
     tr = ref.run(Phi, y, weights=w, forgetting=lam)
     est = adaptid.RLS(n, forgetting=0.98, form=form, nan_policy="skip")
     S = est._S.copy()
-    W = np.zeros((1, 1, _step.width(n, 1)))
+    at = _step.layout(n, 1)
+    W = np.zeros((1, 1, at.width))
     R = W[0, 0]
-    R[n + 4] = est._opt[0]  # the threshold
+    R[at.threshold] = est._opt[0]
     errors, skipped = [], []
     for k in range(N):
-        R[:n], R[n], R[n + 1], R[n + 2] = Phi[k], y[k], lam[k], w[k]
+        R[:n], R[at.y], R[at.lam], R[at.w] = Phi[k], y[k], lam[k], w[k]
         est._kern.step(S, W, est._ntag, est._ptag)
-        errors.append(R[n + 3])
-        skipped.append(R[n + 5] == 1.0)
-        R[n + 5] = 0.0
+        errors.append(R[at.e])
+        skipped.append(R[at.skipped] == 1.0)
+        R[at.skipped] = 0.0
     assert np.array_equal(S, ref._S)
     assert np.array_equal(np.array(errors), tr.error, equal_nan=True)
     assert np.array_equal(np.array(skipped), tr.skipped) and skipped[7]

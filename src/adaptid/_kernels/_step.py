@@ -32,15 +32,35 @@ adaptid was installed (:mod:`._installed`). Otherwise ``update`` is a run of
 length 1 through ``run``'s compiled code, as before.
 """
 
+from typing import NamedTuple
+
 from .._config import NJIT_INLINE, njit
 from ._dims import dim
 
-__all__ = ["views", "width", "entry_point"]
+__all__ = ["views", "layout", "Layout", "entry_point"]
 
 
-def width(n, p):
-    """The length K of the packed row for n parameters and p outputs."""
-    return n + 2 * p + 4
+class Layout(NamedTuple):
+    """Offsets in the packed row (the table above) for n parameters and p outputs."""
+
+    y: int
+    lam: int
+    w: int
+    e: int
+    threshold: int
+    skipped: int
+    width: int
+
+
+@njit(**NJIT_INLINE)
+def _offsets(n, p):
+    """The one definition of the packed row's layout (compiled code and Python read it)."""
+    return (n, n + p, n + p + 1, n + p + 2, n + 2 * p + 2, n + 2 * p + 3, n + 2 * p + 4)
+
+
+def layout(n, p) -> Layout:
+    """The packed row's :class:`Layout` (what ``update`` fills and reads)."""
+    return Layout(*getattr(_offsets, "py_func", _offsets)(n, p))
 
 
 @njit(**NJIT_INLINE)
@@ -51,10 +71,10 @@ def views(W, ntag, ptag):
     allocation); ``Th`` has no rows, so the body stores no trajectory.
     """
     n = dim(ntag)
-    p = dim(ptag)
+    iy, il, iw, ie, it, isk, _ = _offsets(n, dim(ptag))
     R = W[0]
-    return (R[:, :n], R[:, n:n + p], R[0, n + p:n + p + 1], R[0, n + p + 1:n + p + 2], W[:0],
-            R[:, n + p + 2:n + 2 * p + 2], R[0, n + 2 * p + 3:n + 2 * p + 4], R[0, n + 2 * p + 2])
+    return (R[:, :iy], R[:, iy:il], R[0, il:il + 1], R[0, iw:iw + 1], W[:0], R[:, ie:it],
+            R[0, isk:isk + 1], R[0, it])
 
 
 def entry_point(dispatcher, args):

@@ -101,12 +101,12 @@ class _StepArrays:
         self.D = None  # the window's pivots (a view of S), checked after each step
         # the packed sample of a narrow step entry (adaptid._kernels._step): φ, y, λ, w, ε,
         # the threshold, the skipped flag in one row R of W
-        self.W = np.zeros((1, 1, _step.width(n, p)))
+        at = _step.layout(n, p)
+        self.W = np.zeros((1, 1, at.width))
         self.R = R = self.W[0, 0]
-        self.R[n + p:n + p + 2] = self.Rlam = self.Rw = 1.0  # λ and w, and their values
-        self.Rphi, self.Ry, self.RE = R[:n], R[n:n + p], R[n + p + 2:n + 2 * p + 2]
-        self.iy, self.ilam, self.iw, self.ie = n, n + p, n + p + 1, n + p + 2
-        self.ithr, self.isk = n + 2 * p + 2, n + 2 * p + 3
+        self.iy, self.ilam, self.iw, self.ie, self.ithr, self.isk = at[:6]
+        R[at.lam] = R[at.w] = self.Rlam = self.Rw = 1.0  # λ and w, and their values
+        self.Rphi, self.Ry, self.RE = R[:n], R[at.y:at.lam], R[at.e:at.threshold]
         self.step_ep = None  # the step entry's compiled function, when found for step_S
         self.step_S = None   # the state array step_ep was looked up for
 
@@ -686,8 +686,8 @@ class RecursiveEstimator:
             True if the estimator has such an entry (it is compiled now), False
             if its updates always go through ``run``'s entry.
         """
-        step = self._kern.step
-        if step is None or self._code_is_rebuilds or self._reports or self._batch is not None:
+        step = self._step_kernel()
+        if step is None or self._batch is not None:
             return False
         a = self._step
         S = self._S.copy()  # a throwaway step: neither the state nor the sample changes
@@ -705,9 +705,15 @@ class RecursiveEstimator:
         else ``update`` goes through ``run``'s compiled code."""
         a = self._step
         a.step_S, a.step_ep = S, None
-        step = self._kern.step
-        if step is not None and not self._code_is_rebuilds and not self._reports:
+        step = self._step_kernel()
+        if step is not None:
             a.step_ep = _step.entry_point(step, (S, a.W, self._ntag, self._ptag))
+
+    def _step_kernel(self):
+        """The algorithm's narrow step entry, or None (none, or one that ``update``'s
+        packed sample cannot serve: the window's re-solves, reported forgetting)."""
+        step = self._kern.step
+        return None if self._code_is_rebuilds or self._reports else step
 
     def _skipped_step(self, phi, y, E, code):
         """The end of an ``update`` whose sample the kernel skipped (NaN or inf in it)."""
