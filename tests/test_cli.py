@@ -307,6 +307,34 @@ def test_inconsistent_options(regression, args, needles):
     assert_one_line_error(invoke("fit", path, *args), *needles)
 
 
+def test_method_option_rules_are_the_factory_table():
+    # --method M with an option: refused ("applies to") exactly when adaptid.estimator(M)
+    # does not take it, and "needs" exactly for the options the factory requires.
+    from adaptid.cli._engine import OPTIONS, MethodSpec
+    from adaptid.cli._errors import CLIError
+    from adaptid.estimators import METHODS, method_options
+    from adaptid.estimators._factory import required_options
+
+    value = {"window": 50, "forgetting": 0.99, "process_cov": 1e-4, "noise_var": 0.1,
+             "step": 0.1, "eps": 1e-3}
+    assert sorted(k for k, _ in OPTIONS.values()) == sorted(value)
+    for m in METHODS:
+        base = {k: value[k] for k in required_options(m)}
+        MethodSpec(m, **base).check()
+        for flag, (key, _) in OPTIONS.items():
+            spec = MethodSpec(m, **{**base, key: value[key]})
+            if key in method_options(m):
+                spec.check()
+            else:
+                refused = f"^{flag} applies to --method .*, not --method {m}$"
+                with pytest.raises(CLIError, match=refused):
+                    spec.check()
+        for flag, (key, _) in OPTIONS.items():
+            if key in required_options(m):
+                with pytest.raises(CLIError, match=f"^--method {m} needs {flag} "):
+                    MethodSpec(m, **{k: v for k, v in base.items() if k != key}).check()
+
+
 def test_file_errors(tmp_path, regression):
     missing = tmp_path / "missing.csv"
     assert_one_line_error(invoke("fit", missing, "--y", "y", "--phi", "a"), str(missing), "no such file")

@@ -14,7 +14,7 @@ import pytest
 from statsmodels.stats.multitest import multipletests
 
 from adaptid import diagnostics, fleet
-from adaptid.fleet._identify import _benjamini_hochberg
+from adaptid.fleet._changes import _benjamini_hochberg
 
 N = 600
 JUMP_AT = 300          # the coefficient of x1 changes from sample 300 on

@@ -45,16 +45,14 @@ def test_write_table_is_atomic_and_typed(tmp_path):
         aio.write_table(df, tmp_path / "no" / "r.csv")
 
 
-def test_cli_modules_reexport_io():
-    from adaptid.cli import _io
-    assert _io.read_table is aio.read_table
-
-
 def test_exceptions_live_in_one_module():
+    # The library's exceptions in adaptid._exceptions; the command line's CLIError in cli/.
     from adaptid import _exceptions as ex
     from adaptid.cli._errors import CLIError
     from adaptid.constrained import IllConditionedWarning, InfeasibleError
-    assert CLIError is ex.CLIError and InfeasibleError is ex.InfeasibleError
+    assert CLIError.__module__ == "adaptid.cli._errors" and not hasattr(ex, "CLIError")
+    assert CLIError.exit_code == 2 and str(CLIError("a\n  b")) == "a b"
+    assert InfeasibleError is ex.InfeasibleError
     assert IllConditionedWarning is ex.IllConditionedWarning
     assert issubclass(ex.IllConditionedWarning, adaptid.AdaptidWarning)
     assert issubclass(ex.DataFileError, ValueError)

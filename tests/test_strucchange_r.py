@@ -146,3 +146,40 @@ def test_monitor_equals_strucchange(kind, rkind):
     assert mon.critical_value == pytest.approx(r(key + ".critval")[0], rel=tol)
     np.testing.assert_allclose(mon.process.ravel(), r(key + ".process"), rtol=RTOL)
     np.testing.assert_allclose(mon.boundary, r(key + ".boundary"), rtol=tol)
+
+
+def test_strucchange_tables_read_from_the_package_data_file():
+    # The tables of strucchange 1.5-3's R/sysdata.rda, as export_tables.R wrote them into
+    # src/adaptid/diagnostics/data/sc_tables.json: shapes, the corner entries (R's
+    # sc.beta.sup[1, ], sc.me[1, ], sc.meanL2[1, 1], monitorMECritvalTable[1, 1, 1, "max"])
+    # exactly, read-only arrays and one reading of the file.
+    from adaptid.diagnostics import _sc_tables as T
+
+    shapes = {"SC_BETA_SUP": (1000, 3), "SC_BETA_AVE": (1000, 5), "SC_BETA_EXP": (1000, 5),
+              "SC_ME": (60, 4), "SC_MEANL2": (25, 15), "SC_MEANL2_P": (15,),
+              "MONITOR_ME_PROB": (50,), "MONITOR_ME": (3, 5, 50)}
+    assert set(T.tables()) == set(T.__all__) == set(shapes) | {"MONITOR_ME_WINSIZE",
+                                                                "MONITOR_ME_PERIOD"}
+    for name, shape in shapes.items():
+        a = getattr(T, name)
+        assert a.shape == shape and a.dtype == np.float64 and not a.flags.writeable, name
+    assert T.SC_BETA_SUP[0].tolist() == [-0.0648467, 0.99671156, 1.2573241]
+    assert T.SC_BETA_SUP[24].tolist() == [-1.78738608, 1.17220925, 4.4726701]
+    assert T.SC_BETA_AVE[0, 0] == -0.0183718 and T.SC_BETA_EXP[0, 0] == -0.00205601
+    assert T.SC_ME[0].tolist() == [0.7552, 0.8017, 0.8444, 0.8977] and T.SC_ME[-1, -1] == 2.0326
+    assert T.SC_MEANL2[0, 0] == 0.860612275599396 and T.SC_MEANL2[-1, -1] == 4.77196771776676
+    assert T.SC_MEANL2_P.tolist() == [0.995, 0.99, 0.98, 0.97, 0.96, 0.95, 0.94, 0.93, 0.92,
+                                      0.91, 0.9, 0.875, 0.85, 0.825, 0.8]
+    assert T.MONITOR_ME_WINSIZE == (0.25, 0.5, 1.0) and T.MONITOR_ME_PERIOD == (2, 4, 6, 8, 10)
+    assert T.MONITOR_ME_PROB.tolist() == [round(0.95 + i / 1000, 3) for i in range(50)]
+    assert T.MONITOR_ME[0, 0, 0] == 1.22762665817831
+    assert T.MONITOR_ME[-1, -1, -1] == 3.94102916093653
+    assert T.SC_ME is T.SC_ME and T.tables() is T.tables()           # read once, then cached
+    with pytest.raises(AttributeError):
+        T.SC_NOT_A_TABLE
+    import tomllib                                                  # shipped in wheel and sdist
+    root = Path(__file__).resolve().parents[1]
+    project = tomllib.loads((root / "pyproject.toml").read_text())
+    assert "diagnostics/data/*" in project["tool"]["setuptools"]["package-data"]["adaptid"]
+    assert "include src/adaptid/diagnostics/data/sc_tables.json" in (
+        root / "MANIFEST.in").read_text().splitlines()

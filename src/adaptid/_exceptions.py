@@ -1,4 +1,7 @@
-"""Every exception and warning class of adaptid.
+"""Every exception and warning class of the library.
+
+The command line's own exception, ``CLIError``, lives with the command line
+(:mod:`adaptid.cli._errors`).
 
 Numerical trouble is reported with warnings of our own, never a bare
 ``RuntimeWarning``, so that users can filter them precisely::
@@ -17,7 +20,6 @@ __all__ = [
     "InfeasibleError",
     "IllConditionedWarning",
     "DataFileError",
-    "CLIError",
     "CompilationCacheWarning",
     "PrecisionWarning",
 ]
@@ -107,20 +109,6 @@ class DataFileError(ValueError):
     The message is one line that names the file (and the column or row at
     fault). Subclasses :class:`ValueError`.
     """
-
-    def __init__(self, message: str):
-        super().__init__(" ".join(str(message).split()))
-
-
-class CLIError(Exception):
-    """A problem with the user's input (file, column, option): exit code 2.
-
-    The message is one line that names the file, column or option at fault;
-    the command line prints it as ``adaptid: error: <message>`` on stderr,
-    without a traceback unless ``--debug`` is given.
-    """
-
-    exit_code = 2
 
     def __init__(self, message: str):
         super().__init__(" ".join(str(message).split()))

@@ -21,13 +21,31 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from adaptid.estimators import METHODS as _RECURSIVE
+from adaptid.estimators import method_options
+from adaptid.estimators._factory import required_options
+
 from ._errors import CLIError
 
-__all__ = ["MethodSpec", "EquationFit", "fit_equation", "run_chunked", "METHODS"]
-
-from adaptid.estimators import METHODS as _RECURSIVE
+__all__ = ["MethodSpec", "EquationFit", "fit_equation", "run_chunked", "METHODS", "OPTIONS"]
 
 METHODS = _RECURSIVE + ("batch",)
+
+#: The estimator options of the command line: flag -> (the factory's keyword, what
+#: "--method M needs FLAG ..." says of it). Which method takes or needs an option
+#: is read from the factory's table (:func:`adaptid.estimators.method_options`,
+#: ``required_options``), never restated here; ``batch`` takes none of them.
+OPTIONS = {
+    "--window": ("window", "M (the number of samples in the window)"),
+    "--forgetting": ("forgetting", ""),
+    "--process-cov": ("process_cov",
+                      "Q (variance of the parameters' random-walk step per sample)"),
+    "--noise-var": ("noise_var", ""),
+    "--step": ("step", "MU (the adaptation gain, > 0)"),
+    "--eps": ("eps", ""),
+}
+#: flags whose message has always read "applies to --method A or B" without "only"
+_WITHOUT_ONLY = ("--forgetting",)
 
 
 @dataclass
@@ -61,18 +79,10 @@ class MethodSpec:
                 raise CLIError("--resume does not apply to --method batch (no state to continue)")
         else:
             m = self.resolved
-            if self.window is not None and m != "window":
-                raise CLIError(f"--window applies to --method window only, not --method {m}")
-            if m == "window" and self.window is None:
-                raise CLIError("--method window needs --window M (the number of samples in the window)")
-            if self.forgetting is not None and m not in ("rls", "window"):
-                raise CLIError(f"--forgetting applies to --method rls or window, not --method {m}")
-            for opt, val in (("--process-cov", self.process_cov), ("--noise-var", self.noise_var)):
-                if val is not None and m != "kalman":
-                    raise CLIError(f"{opt} applies to --method kalman only, not --method {m}")
-            if m == "kalman" and self.process_cov is None:
-                raise CLIError("--method kalman needs --process-cov Q (variance of the parameters' "
-                               "random-walk step per sample)")
+            # two calls keep the order of the messages: a missing --window first
+            check_options(m, (("--window", self.window),))
+            check_options(m, (("--forgetting", self.forgetting),
+                              ("--process-cov", self.process_cov), ("--noise-var", self.noise_var)))
             if self.P0 is not None and m == "batch":
                 raise CLIError("--P0 does not apply to --method batch (batch least squares has no prior)")
             check_gradient(m, self.step, self.eps, self.P0)
@@ -92,10 +102,9 @@ class MethodSpec:
             return None
         if m == "window" and self.window < n:
             raise CLIError(f"--window must be at least the number of parameters ({n}), got {self.window}")
-        given = {"P0": self.P0, "forgetting": self.forgetting, "window": self.window,
-                 "process_cov": self.process_cov, "noise_var": self.noise_var,
-                 "step": self.step, "eps": self.eps}
-        allowed = _method_options(m)
+        given = {"P0": self.P0}
+        given.update((key, getattr(self, key)) for key, _ in OPTIONS.values())
+        allowed = method_options(m)
         kw = {k: v for k, v in given.items() if v is not None and k in allowed}
         try:
             return estimator(m, n, nan_policy=nan_policy, **kw)
@@ -197,25 +206,43 @@ def check_ranges(*, forgetting=None, P0=None, process_cov=None, noise_var=None):
             raise CLIError(f"{opt} must be {text}, got {val:g}; {_REASON}")
 
 
-_GRADIENT = ("lms", "nlms")
+def _takes(m, key) -> bool:
+    """Whether method ``m``'s estimator takes option ``key`` (the factory's table)."""
+    return m != "batch" and key in method_options(m)
+
+
+def check_options(m, given):
+    """Raise CLIError for an option ``m`` does not take, then for one it needs.
+
+    ``given``: (flag, value or None) pairs of :data:`OPTIONS`, checked in order.
+    """
+    for flag, val in given:
+        key = OPTIONS[flag][0]
+        if val is not None and not _takes(m, key):
+            takers = " or ".join(mm for mm in _RECURSIVE if _takes(mm, key))
+            only = "" if flag in _WITHOUT_ONLY else " only"
+            raise CLIError(f"{flag} applies to --method {takers}{only}, not --method {m}")
+    needed = () if m == "batch" else required_options(m)
+    for flag, val in given:
+        key, what = OPTIONS[flag]
+        if val is None and key in needed:
+            raise CLIError(f"--method {m} needs {flag} {what}".rstrip())
+
+
+#: the gradient methods: those whose estimator takes a step size
+_GRADIENT = tuple(m for m in _RECURSIVE if _takes(m, "step"))
 
 
 def check_gradient(m, step, eps, P0):
     """The options of the gradient methods (--step, --eps) and what they exclude."""
-    if step is not None and m not in _GRADIENT:
-        raise CLIError(f"--step applies to --method lms or nlms only, not --method {m}")
-    if eps is not None and m != "nlms":
-        raise CLIError(f"--eps applies to --method nlms only, not --method {m}")
-    if m in _GRADIENT:
-        if step is None:
-            raise CLIError(f"--method {m} needs --step MU (the adaptation gain, > 0)")
-        if not (math.isfinite(step) and step > 0):
-            raise CLIError(f"--step must be finite and > 0, got {step:g}")
-        if eps is not None and not (math.isfinite(eps) and eps >= 0):
-            raise CLIError(f"--eps must be finite and >= 0, got {eps:g}")
-        if P0 is not None:
-            raise CLIError(f"--P0 does not apply to --method {m} (a gradient method has no "
-                           "covariance)")
+    check_options(m, (("--step", step), ("--eps", eps)))
+    if step is not None and not (math.isfinite(step) and step > 0):
+        raise CLIError(f"--step must be finite and > 0, got {step:g}")
+    if eps is not None and not (math.isfinite(eps) and eps >= 0):
+        raise CLIError(f"--eps must be finite and >= 0, got {eps:g}")
+    if P0 is not None and m != "batch" and not _takes(m, "P0"):
+        raise CLIError(f"--P0 does not apply to --method {m} (a gradient method has no "
+                       "covariance)")
 
 
 def _cov_or_nan(est):
@@ -225,12 +252,6 @@ def _cov_or_nan(est):
     except AttributeError:
         n = est.n_params
         return np.full((n, n), np.nan)
-
-
-def _method_options(method):
-    from adaptid.estimators import method_options
-
-    return method_options(method)
 
 
 def _fmt_opt(v) -> str:

@@ -35,8 +35,8 @@ certificates); quadprog (dual active set, needs ``AᵀA`` positive definite;
 not maintained, not installed).
 """
 
+from .._exceptions import IllConditionedWarning, InfeasibleError
 from ._cls import CLSResult, MultiObjectiveResult, constrained_lstsq, multi_objective_lstsq
-from ._errors import IllConditionedWarning, InfeasibleError
 from ._lq import (
     LQControlResult,
     LQCVResult,

@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
+from .._exceptions import InfeasibleError
 from .._validation import as_float_array, check_choice, param_error
-from ._errors import InfeasibleError
 from ._linalg import RankProblem, cls_kkt, cls_qr, numerical_rank
 from ._qp import QPStatusError, solve_qp
 

@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
-from ._errors import IllConditionedWarning
+from .._exceptions import IllConditionedWarning
 
 EPS = np.finfo(np.float64).eps
 

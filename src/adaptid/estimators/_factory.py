@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from .._validation import check_choice, check_int, param_error
 
-__all__ = ["estimator", "METHODS", "method_of", "method_options"]
+__all__ = ["estimator", "METHODS", "method_of", "method_options", "required_options"]
 
 #: Method names and the keyword options each one takes (besides the common
 #: ``theta0``, ``P0``, ``nan_policy``, ``n_outputs``, ``windup_threshold``).
@@ -37,6 +37,12 @@ def method_options(method: str) -> tuple[str, ...]:
     """The keyword options :func:`estimator` accepts for ``method``."""
     method = check_choice(method, "method", METHODS)
     return _SPECIFIC[method] + (_COMMON_GRADIENT if method in _GRADIENT else _COMMON)
+
+
+def required_options(method: str) -> tuple[str, ...]:
+    """The keyword options :func:`estimator` needs for ``method`` (no default)."""
+    method = check_choice(method, "method", METHODS)
+    return _REQUIRED.get(method, ())
 
 
 def _classes():
@@ -103,7 +109,7 @@ def estimator(method, n_params, **options):
         if key not in allowed:
             raise param_error(key, f"an option of method={method!r} ({', '.join(allowed)})",
                               "<an unknown option>", exc=TypeError)
-    for key in _REQUIRED.get(method, ()):
+    for key in required_options(method):
         if options.get(key) is None:
             raise param_error(key, f"given for method={method!r}", "<None>", exc=TypeError)
     opts = dict(options)
