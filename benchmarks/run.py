@@ -135,7 +135,8 @@ def t_cold(outs, jsons):
             ("n", "import + RLS(n), s", "first run, s", "first update, s", "warm run, s",
              "warm update, s"), rows)
         if demo:
-            lines += ["", f"`adaptid demo`: {demo[0]} s with an empty cache folder, {demo[1]} s warm."]
+            lines += ["", f"`adaptid demo`: {demo[0]} s with an empty cache folder, "
+                          f"{demo[1]} s warm."]
         lines.append("")
     return lines[:-1]
 
@@ -153,8 +154,8 @@ def t_fleet(outs, jsons):
 
 def t_breakpoints(outs, jsons):
     r = jsons[0]
-    return _table(("N, n, h", "breaks (BIC)", "adaptid (all m), s CPU", "ruptures Dynp (one m), s CPU",
-                   "ratio, CPU", "same segmentation"),
+    return _table(("N, n, h", "breaks (BIC)", "adaptid (all m), s CPU",
+                   "ruptures Dynp (one m), s CPU", "ratio, CPU", "same segmentation"),
                   [(f"{r['N']}, {r['n']}, {r['h']}", r["m"], f"{r['adaptid_cpu_s']:.3f}",
                     f"{r['ruptures_cpu_s']:.1f}", f"{r['ratio_cpu']:.0f} ×", r["same"])])
 
@@ -189,8 +190,9 @@ BENCHES = {
     "update": Bench("bench_update.py", [({}, ["--rounds", "7"])], t_update,
                     "one update() call from Python, per algorithm",
                     smoke=[["--rounds", "1", "--calls", "200"]], tools=()),
-    "batched": Bench("bench_batched.py", [({"NUMBA_NUM_THREADS": "1"}, ["--rounds", "5", "--ns", "4"]),
-                                          ({}, ["--rounds", "5", "--ns", "4"])], t_batched,
+    "batched": Bench("bench_batched.py",
+                     [({"NUMBA_NUM_THREADS": "1"}, ["--rounds", "5", "--ns", "4"]),
+                      ({}, ["--rounds", "5", "--ns", "4"])], t_batched,
                      "run_batched / run_segments per core ÷ one C thread",
                      smoke=[["--rounds", "1", "--ns", "4", "--streams", "64"]] * 2),
     "lms": Bench("bench_lms.py", [({}, ["--rounds", "7"])], t_lms,
@@ -200,7 +202,8 @@ BENCHES = {
                        [({}, ["--repeat", "2", "--n", "3", "5", "8", "24", "64", "100"]),
                         ({}, ["--repeat", "1", "--jit", "--no-demo", "--n", "3", "8"])], t_cold,
                        "first run / update in a fresh process, empty numba cache",
-                       smoke=[["--n", "3", "--no-demo"], ["--jit", "--n", "3", "--no-demo"]], tools=()),
+                       smoke=[["--n", "3", "--no-demo"], ["--jit", "--n", "3", "--no-demo"]],
+                       tools=()),
     "fleet": Bench("bench_fleet.py", [({}, [])], t_fleet,
                    "fleet.identify against pandas groupby-apply; Dask scaling",
                    smoke=[["--devices", "40", "--samples", "200", "--repeat", "1",
@@ -248,7 +251,8 @@ def run_bench(name, b: Bench, smoke):
         for i, (env, args) in enumerate(runs):
             js = os.path.join(tmp, f"{i}.json")
             argv = [a.replace("{json}", js) for a in args]
-            print(f"`{shown(env, args).format(script=b.script)}`" + ("  " if i < len(runs) - 1 else ""))
+            end = "  " if i < len(runs) - 1 else ""  # a Markdown line break between commands
+            print(f"`{shown(env, args).format(script=b.script)}`{end}")
             proc = subprocess.run([sys.executable, str(HERE / b.script), *argv], cwd=ROOT,
                                   env=dict(os.environ, **env), capture_output=True, text=True)
             if proc.returncode != 0:
@@ -265,7 +269,8 @@ def run_bench(name, b: Bench, smoke):
 # the quick check
 # --------------------------------------------------------------------------
 _QR = (re.compile(r"RLS\.run n=\s*(\d+):\s+([0-9.]+) M updates/s, ([0-9.]+) x the fastest C loop"),
-       re.compile(r"SlidingWindowRLS\(4, 100\)\.run:\s+([0-9.]+) M steps/s, ([0-9.]+) x re-solving"),
+       re.compile(r"SlidingWindowRLS\(4, 100\)\.run:\s+([0-9.]+) M steps/s, "
+                  r"([0-9.]+) x re-solving"),
        re.compile(r"RLS\(4\)\.update from Python: ([0-9.]+) us per call"))
 
 
@@ -314,7 +319,8 @@ def own_quick(smoke):
         Phi = np.ascontiguousarray(rng.standard_normal((N, n)))
         y = Phi @ rng.standard_normal(n) + 0.1 * rng.standard_normal(N)
         adaptid.RLS(n, forgetting=lam, P0=p0).run(Phi[:100], y[:100])
-        t_a = best_of(lambda: adaptid.RLS(n, forgetting=lam, P0=p0).run(Phi, y, store=False), rounds)
+        t_a = best_of(lambda: adaptid.RLS(n, forgetting=lam, P0=p0).run(Phi, y, store=False),
+                      rounds)
         if lib is not None:  # the fastest of rls_run / rls_tri / rls_fu, as quick_ratios.py
             calls = bench_rls_forms.c_callers(lib, n, Phi, y).values()
             t_c = min(best_of(c, rounds) for c in calls)
