@@ -1,11 +1,16 @@
-"""Smoke test of benchmarks/bench_rls.py: it runs, and it compares like with like.
+"""Smoke tests of benchmarks/bench_rls.py and of the runner benchmarks/run.py.
 
-Only the correctness of the comparison is checked (the contenders compute the
-same estimates on the same data); speed is never asserted here — timings of
-``--quick`` are meaningless, and the real numbers live in BENCHMARKS.md.
+bench_rls.py: it runs, and it compares like with like. Only the correctness of
+the comparison is checked (the contenders compute the same estimates on the
+same data); speed is never asserted here — timings of ``--quick`` are
+meaningless, and the real numbers live in BENCHMARKS.md. run.py: its quick
+check runs at tiny sizes (``--smoke``) and prints its Markdown table with the
+commit and the machine.
 """
 
 import json
+import os
+import re
 import shutil
 import subprocess
 import sys
@@ -15,6 +20,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "benchmarks" / "bench_rls.py"
+RUNNER = ROOT / "benchmarks" / "run.py"
 NS = (4, 8, 16, 32)
 HAVE_GCC = shutil.which("gcc") is not None
 
@@ -90,3 +96,28 @@ def test_sliding_window_equals_lstsq_resolve(quick_results):
     assert w["vs_lstsq_with_prior_rel"] < 1e-9
     # the plain window lstsq the benchmark times differs only by the 1/P0 prior
     assert w["vs_plain_lstsq_rel"] < 1e-4
+
+
+def test_runner_quick_smoke_prints_the_table():
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(ROOT / "src")] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+    proc = subprocess.run([sys.executable, str(RUNNER), "--quick", "--smoke"], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, f"run.py --quick --smoke failed:\n{proc.stdout}\n{proc.stderr}"
+    out = proc.stdout
+    assert out.startswith("Commit `") and "\nMachine: " in out
+    rows = [line for line in out.splitlines() if line.startswith("| `")]
+    assert [r.split(" | ")[0] for r in rows] == [
+        "| `RLS(4).run`, store=False", "| `SlidingWindowRLS(4, 100).run`",
+        "| `RLS(4).update` from Python"]
+    if HAVE_GCC:  # a ratio to the C loop, not NaN
+        assert re.search(r"\| [0-9.]+ × the fastest C loop \|", rows[0]), rows[0]
+
+
+def test_runner_lists_every_maintained_benchmark():
+    proc = subprocess.run([sys.executable, str(RUNNER), "--list"], cwd=ROOT, capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    scripts = {p.name for p in (ROOT / "benchmarks").glob("*.py")} - {"run.py"}
+    listed = set(re.findall(r"benchmarks/(\w+\.py)", proc.stdout))
+    assert listed == scripts - {"bench_rls_forms.py"}  # run through bench_rls.py --forms

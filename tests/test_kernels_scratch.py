@@ -1,7 +1,7 @@
 """The stack scratch arrays of the specialised kernels (adaptid._kernels._scratch).
 
 The speed of the RLS kernel depends on these arrays really being on the stack
-when n is a compile-time constant (BENCHMARKS.md, run 5). numba picks the
+when n is a compile-time constant (benchmarks/bench_rls.py). numba picks the
 overload by the argument's literal type, so a change in numba's literal
 dispatch would silently fall back to the heap. These tests look at the
 generated LLVM IR for a heap allocation.

@@ -16,7 +16,7 @@
  * rounding): the shortcut P <- (P - K g')/lambda saves a pass but is
  * numerically unstable for lambda < 1 -- the antisymmetric rounding error
  * of P is multiplied by 1/lambda every step, and at lambda = 0.99 theta is
- * wrong by O(1) after ~5000 samples (see BENCHMARKS.md).
+ * wrong by O(1) after some thousands of samples.
  *
  * Compiled with -DRLS_SYM=1 the update is instead done on the upper
  * triangle and mirrored (P exactly symmetric; another common practical form).

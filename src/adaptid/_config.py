@@ -141,8 +141,9 @@ def _start_runtime(target_context):
 
     numba's ``FunctionCache.load_overload`` first calls ``target_context.refresh()``,
     which also loads every typing and lowering registry of numba (and with them
-    scipy.linalg, cffi, ...): about 0.2 s in the first process that loads a
-    kernel, needed to *compile* but not to load compiled code. The code of a
+    scipy.linalg, cffi, ...): a visible part of the first process's start
+    (``benchmarks/bench_coldstart.py``, warm rows), needed to *compile* but not
+    to load compiled code. The code of a
     cached kernel needs the runtime (NRT) symbols only; a compilation that
     follows refreshes the context itself (``numba.core.compiler``).
     """

@@ -1,6 +1,6 @@
 """Modules imported on first use: ``signal = lazy("scipy.signal")``.
 
-``scipy.signal`` takes about 1.5 s to import and most programs that import
+``scipy.signal`` is slow to import and most programs that import
 :mod:`adaptid.models` never filter a signal (``adaptid demo`` among them);
 the proxy imports the module on the first attribute access instead of at
 import time.

@@ -26,8 +26,9 @@ compile-time constants there when the entry point was called with tuple tags
 (:mod:`._dims`). Nothing here validates input: the Python layer does that.
 
 Keep the Bierman updates written flat: composing them of smaller inlined
-helpers that return tuples (a refactor once tried) cost the sliding window
-5 × its speed while the RLS stream did not move.
+helpers that return tuples (a refactor once tried) made the sliding window
+several times slower while the RLS stream did not move (the window's row in
+``benchmarks/bench_rls.py``).
 """
 
 import numpy as np
@@ -108,9 +109,9 @@ def _bierman_apply(U, D, r, f, v, b, NP):
 def _bierman_apply_pairs(U, D, r, f, v, b, NP):
     """:func:`_bierman_apply` with the stages taken two at a time.
 
-    bᵢ is loaded and stored once per pair of columns: at n = 16, 1.2 × the
-    updates/s of one column at a time, for about 1.5 × the compile time of
-    the plain RLS kernels. Used by the RLS stream, whose speed is the
+    bᵢ is loaded and stored once per pair of columns: faster than one column
+    at a time at n = 16 (``benchmarks/bench_rls.py``), for a longer compile
+    than the plain RLS kernels. Used by the RLS stream, whose speed is the
     library's headline; the other streams keep :func:`_bierman_apply`.
     """
     a = r + f[0] * v[0]

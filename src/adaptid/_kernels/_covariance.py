@@ -168,7 +168,7 @@ def _prior_error(theta, tflat, Phi, Y, k, e, NP, p):
     Θᵀφ is summed as :func:`_quad` sums (8 lanes and a tree; ``tflat`` is Θ's
     storage, row-major): the sequential chain of n multiply-adds is the
     loop-carried path θₖ → εₖ₊₁ → θₖ₊₁, and it could not overlap the sweep
-    before it (n = 32: 0.81 → 0.89 × the C loop, n = 64: 0.84 → 0.90).
+    before it (faster at n = 32 and 64: ``benchmarks/bench_rls.py --forms``).
 
     With θ finite, a finite eⱼ means φ and y are finite (a non-finite φᵢ or yⱼ
     makes its term, and then the sum, non-finite: ∞·0 is NaN); a non-finite θ

@@ -33,12 +33,10 @@ from ._vecir import LANES, ZEN, _lanes, _ptr, _splat, lane_tree, loop_end, scala
 
 #: the largest n swept by this code; above it the scalar loops of _covariance,
 #: which LLVM's loop vectoriser handles. Which is faster depends on the core
-#: (bench_rls.py --forms, covariance form ÷ the best C loop at n = 64): on AMD
-#: Zen 4 (EPYC, 512-bit operations in two halves) the scalar loops, 0.87 against
-#: 0.70 (c in registers or reloaded per row alike), so 32 there; on Intel
-#: (Emerald Rapids, full-width AVX-512) this code, 1.6 x the scalar loops at
-#: n = 40, 48 and 64 (benchmarks/ab_covsweep.py, median of three alternating
-#: rounds; 1.17 against 0.73-0.77 x the C loop at n = 64), so 64
+#: (``benchmarks/bench_rls.py --forms``, the covariance form at n = 32 and 64):
+#: on AMD Zen 4 (EPYC, 512-bit operations in two halves) the scalar loops (c in
+#: registers or reloaded per row alike), so 32 there; on Intel (Emerald Rapids,
+#: full-width AVX-512) this code, at n = 40, 48 and 64 too, so 64
 #: (:data:`FORMS_SPECIALISED_N <adaptid.estimators._rlsforms.FORMS_SPECIALISED_N>`,
 #: the largest compile-time n) elsewhere.
 VECTOR_SWEEP_MAX = 32 if ZEN else 64

@@ -6,7 +6,8 @@ entry point at its IR level (``@njit(inline="always")``). numba's inliner
 callee's IR before splicing it in, and copies it block by block, each with a
 ``copy.deepcopy`` of its own: every block's copy deep-copies the callee's
 whole variable scope again. The cost grows as blocks × variables, and for
-adaptid's larger streams it was half of the compile time of an entry point
+adaptid's larger streams it was a large part of the compile time of an entry
+point (``benchmarks/bench_coldstart.py --jit`` times the cold compile)
 (numba issue #8989; numba-cuda #688 and #689 make the same fix).
 
 :func:`install` makes those copies share one ``deepcopy`` memo per

@@ -53,7 +53,7 @@ def _kalman_core(S, Phi, Y, w, Th, E, skipped, opt, Q, ntag, ptag):
             for j in range(p):
                 E[k, j] = np.nan
             time_update = skip
-        # one time update in the code, not one per branch (cold compile 2.0 -> 1.6 s)
+        # one time update in the code, not one per branch (a shorter cold compile)
         ok = _time_update(U, D, Q, W, NP) if time_update else True
         if bad < 0 and not (ok and _d_below(D, dthr, NP)):
             bad = k

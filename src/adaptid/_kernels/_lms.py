@@ -9,7 +9,8 @@ Entry points share one signature with every other algorithm (see
                  codes, ntag, ptag)
 
 with the prefix ``lms_`` (LMS) and ``nlms_`` (NLMS): the normalisation is a
-compile-time constant of each set (a run-time flag cost NLMS ~15 % at n = 8).
+compile-time constant of each set (a run-time flag made NLMS slower,
+``benchmarks/bench_lms.py``).
 State ``S = [ theta (n·p, row-major (n, p)) ]``: no covariance.
 ``opt = [windup threshold (unused), step μ, bias ε]``;
 ``lam``, ``mat``, ``Lk`` and ``St`` are unused (no forgetting). The code is the first
@@ -45,14 +46,13 @@ def _dot(c, sign, A, k, b, off, stride, NP, square):
     compile-time constant) c + Σᵢ A[k, i]²; for NP ≥ 8 in four interleaved sums.
 
     The error's dot product is the loop-carried critical path of LMS (θₖ needs
-    εₖ needs θₖ₋₁): one chain of NP dependent FMAs cost NLMS 25 % against the
-    C loop at n = 16; four chains cut its latency about 3× (measured: 1.5 ×
-    the C loop). The sum differs from the sequential one by rounding only.
+    εₖ needs θₖ₋₁): one chain of NP dependent FMAs left NLMS behind the C loop
+    at n = 16; four chains cut its latency (``benchmarks/bench_lms.py``). The
+    sum differs from the sequential one by rounding only.
     For NP < 8 it is the sequential sum started from c, as the C loop does.
     Φ's row k is read in place: a row view ``Phi[k]`` per sample cost a
     reference count increment and decrement, two calls that also pushed θ out
-    of the registers at n = 16 (10⁶ samples with the trajectory in memory
-    already: 17.6 → 9.6 ms; the C loop 13.7 ms).
+    of the registers at n = 16 (``benchmarks/bench_lms.py``).
     """
     if NP >= 8:
         s0 = c
@@ -96,7 +96,7 @@ def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
         # included), and q = ε + φᵀφ (NLMS) only if φ is. All finite (the usual
         # case): use the sample. Otherwise (a NaN / inf in the data, φᵀφ
         # overflowing, or θ diverged) decide exactly on the values. This
-        # replaced a test of every φᵢ that cost NLMS 12 % at n = 8; LMS forms
+        # replaced a test of every φᵢ that slowed NLMS (bench_lms.py); LMS forms
         # no φᵀφ (n more products per sample).
         if norm:
             q = _dot(bias, 1.0, Phi, k, th, 0, 0, NP, True)

@@ -33,7 +33,8 @@ def _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag):
     """:func:`_rls_body` compiled once per types and tags, called (not inlined) by the
     parallel entries and other kernels: numba's inlining copies the body's IR (a fifth
     of a kernel's compile time). ``rls_run`` inlines the body instead: a call costs
-    ~0.15 µs (the array arguments' reference counts), a tenth of an ``update``."""
+    the array arguments' reference counts, a visible part of an ``update``
+    (``benchmarks/bench_update.py``)."""
     return _rls_body(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag)
 
 
@@ -41,7 +42,7 @@ def _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag):
 def _rls_body(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag):
     # Written flat, with every branch at the top of the loop body: a branch
     # around the unrolled update (e.g. `if w > 0`) made LLVM spill the state
-    # and the loop ran 4 x slower (measured at n = 4). The factor is worked
+    # and the loop ran several times slower (benchmarks/bench_rls.py). The factor is worked
     # on in a stack copy (see _scratch): LLVM then knows that the stores to
     # the trajectory cannot change it and stops reloading it after each one.
     NP = dim(ntag)

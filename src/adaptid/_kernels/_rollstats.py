@@ -6,7 +6,7 @@ is an array of N + 1 rows when statistics are asked for (row 0: the
 accumulators before the run, row k + 1: after sample k) and ``None`` when
 not: the hooks are overloaded on its type, so without statistics they
 compile to nothing and the streams run the code they ran before (a run-time
-test of ``St`` cost the n = 4 RLS stream 20 % of its speed). A row is
+test of ``St`` slowed the n = 4 RLS stream, ``benchmarks/bench_rls.py``). A row is
 
 ``[ count, n_eff, W, Σ c log w, zeros | diag P (n) | J (p) | ȳ (p) | S_yy (p) ]``
 

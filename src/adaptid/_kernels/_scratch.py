@@ -26,9 +26,9 @@ from numba.np.arrayobj import make_array, populate_array
 
 __all__ = ["scratch", "scratch2", "scratch2_lines", "small_scratch"]
 
-#: ``small_scratch`` is on the stack up to this length. Measured with the RLS
-#: kernel: the work vectors on the stack gave +15-25 % updates/s at n = 8 but
-#: -25 % at n = 16 (LLVM promotes them to registers and spills the factor).
+#: ``small_scratch`` is on the stack up to this length. With the RLS kernel the
+#: work vectors on the stack are faster at n = 8 but slower at n = 16 (LLVM
+#: promotes them to registers and spills the factor; benchmarks/bench_rls.py).
 SMALL_MAX = 8
 
 
@@ -63,8 +63,8 @@ def scratch2(n):  # pragma: no cover - replaced by the overload in compiled code
 
 def scratch2_lines(n):  # pragma: no cover - replaced by the lowering in compiled code
     """``scratch2(n)`` aligned to 64 bytes: for 8 | n each row starts a cache line (the
-    covariance form's P: vector loads of a row never straddle two lines; n = 8 ran
-    0.90 -> 1.05 x the C loop with it)."""
+    covariance form's P: vector loads of a row never straddle two lines; faster at
+    n = 8, see ``benchmarks/bench_rls.py --forms``)."""
     return np.empty((n, n))
 
 
@@ -88,8 +88,8 @@ def _register(fn, ndim, largest, align=None):
     Written as a typing template and a lowering (not an inlined ``@overload``):
     the alloca is emitted straight into the caller's entry block, and typing a
     call costs a template lookup instead of compiling and inlining an
-    implementation at every call site (about 10 ms each, a tenth of a kernel's
-    compile time).
+    implementation at every call site (a noticeable share of a kernel's compile
+    time, ``benchmarks/bench_coldstart.py --jit``).
     """
     arrty = types.Array(types.float64, ndim, "C")
 

@@ -75,8 +75,8 @@ def _chunk(form, seg, U, D, th, bad, Ec, Sk, Thc, bufs, k0, T, N, dthr, Phi, Y, 
     """The T steps of the chunk at k0 (of N samples) from one of the buffers ``bufs``
     while the next chunk is gathered into the other, one sample per step: the loads
     from the streams then overlap the arithmetic (gathering a whole chunk before its
-    steps left them waiting on memory: n = 4, B = 10⁴, 120 → 143 M updates/s on one
-    thread). a, b: the block's streams (batched) or segments, as :func:`_gather`."""
+    steps left them waiting on memory; ``benchmarks/bench_batched.py``). a, b: the
+    block's streams (batched) or segments, as :func:`_gather`."""
     odd = (k0 // CHUNK) % 2 == 1
     (X, Yc, Lc, Wc, Rc), nxt = (bufs[1], bufs[0]) if odd else (bufs[0], bufs[1])
     T1 = min(CHUNK, N - k0 - CHUNK)
@@ -158,7 +158,7 @@ def _batched_gather(form, Phi, Y, lam, w, s0, nl, k0, t0, t1, X, Yc, Lc, Wc, Rc,
 @njit(**_INL)
 def _batched_scatter(E, skipped, Ec, Sk, s0, nl, k0, t0, t1):
     """ε and the skipped flags of samples k0 + t, t0 ≤ t < t1, back to the streams,
-    t outer (~30 % faster than l outer)."""
+    t outer (faster than l outer; ``benchmarks/bench_batched.py``)."""
     for t in range(t0, t1):
         for l in range(LANES):
             if l < nl:
@@ -186,8 +186,8 @@ def _batched_block(form, S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, 
         T = min(CHUNK, N - k0)
         _chunk(form, BATCHED, U, D, th, bad, Ec, Sk, Thc, bufs, k0, T, N, dthr, Phi, Y, lam, w,
                s0, nl, il0, r0, NP)
-        # (scattering the previous chunk's ε one sample per step too was slower: 143 ->
-        # 120 M updates/s at n = 4)
+        # (scattering the previous chunk's ε one sample per step too was slower:
+        # benchmarks/bench_batched.py)
         _batched_scatter(E, skipped, Ec, Sk, s0, nl, k0, 0, T)
         for l in range(nl):
             s = s0 + l
@@ -220,7 +220,7 @@ def _soa_batched(form, S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, codes, n
 
 # A block is compiled on its own, not inlined into the parallel loop: numba's parfor
 # passes then see a loop of one call instead of the whole inlined block (its fusion
-# pass alone took 3.2 of the 12 s the U-D lane kernel took to compile).
+# pass alone took a large part of the U-D lane kernel's compile time).
 @njit(**_ONE)
 def _ud_batched_block(S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, mat, il0, r0, ntag):
     _batched_block(UD, S, Phi, Y, lam, w, Th, E, skipped, Lk, codes, s0, opt, mat, il0, r0,

@@ -23,7 +23,8 @@ COV = (0, 0)
 # before typing: only one form's code is compiled (checked by hand: a call of an
 # undefined function in the covariance branch does not stop the U-D kernel compiling).
 # Chosen by overloads instead, the steps were inlined only by LLVM, after its loop
-# vectoriser had passed them (the U-D steps ran scalar, 2.8 x slower).
+# vectoriser had passed them (the U-D steps ran scalar and much slower;
+# benchmarks/bench_batched.py).
 @njit(**_INL)
 def lane_load(form, Sv, A, B, th, bad, l, NP):
     """Lane l ← the flat state (U-D: A = U, B = D; covariance: A = P, B = u)."""

@@ -14,8 +14,8 @@ from .._config import NJIT_INLINE, NJIT_PARALLEL, njit
 from ._scratch import _stack_ptr
 
 #: Streams advanced together by one vector instruction (4 doubles with AVX2, 8
-#: with AVX-512). Measured at n = 4 on AVX-512 (Zen 4): 4 lanes 1.5 x, 16 lanes
-#: 1.3 x the time of 8 (steps ~40 % of it, gathering and scattering the rest).
+#: with AVX-512). At n = 4 on AVX-512 (Zen 4) 4 and 16 lanes were both slower
+#: than 8 (``benchmarks/bench_batched.py``).
 LANES = 8
 #: Time steps transposed into the lane-major scratch at once.
 CHUNK = 32
@@ -60,7 +60,8 @@ def _select(typingctx, c, a, b):
 @overload(blend, inline="always")
 def _blend(c, a, b):
     # Not a branch: LLVM made masked stores of those, and a load after a masked
-    # store waits for it to retire (no forwarding): the step ran 5-10 x slower.
+    # store waits for it to retire (no forwarding): the step ran several times
+    # slower (benchmarks/bench_batched.py).
     return lambda c, a, b: _select(c, a, b)
 
 

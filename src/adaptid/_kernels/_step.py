@@ -1,9 +1,9 @@
 r"""One sample through a narrow compiled entry: what ``update`` calls.
 
 ``run``'s entry takes fourteen arguments, eleven of them arrays; calling a
-compiled numba function converts ("unboxes") every array argument, about 55 ns
-each on the 2-core test machine. For one sample that conversion costs more than
-the arithmetic. A step entry takes two arrays and the two size tags::
+compiled numba function converts ("unboxes") every array argument, and for one
+sample that conversion costs more than the arithmetic (``benchmarks/bench_update.py``
+times both entries). A step entry takes two arrays and the two size tags::
 
     step(S, W, ntag, ptag) -> code
 

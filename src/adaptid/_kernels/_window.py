@@ -79,7 +79,8 @@ def _window_rebuild(theta, U, D, meta, Bphi, By, Bw, BL, theta0, U0, D0,
 
 
 # The window's stream is written flat (no per-step array views, branches at
-# the top of the loop body): 1.5-2x faster than composing the helpers above.
+# the top of the loop body): faster than composing the helpers above (the
+# window's rows in benchmarks/bench_rls.py and benchmarks/bench_update.py).
 # Compiled once per types and tags and called by the entry points, not inlined
 # into each (see _rls._rls_core); other kernels pass size_tag(n).
 @njit(**NJIT)

@@ -673,8 +673,8 @@ class RecursiveEstimator:
 
         :meth:`update` is bit for bit a step of :meth:`run` either way. For
         :class:`RLS`'s fast forms (no forgetting strategy, finite prior) it has a
-        compiled entry that takes one packed sample, about 0.5 µs less per call
-        at n = 4 than a run of length 1 through ``run``'s entry. ``update`` uses
+        compiled entry that takes one packed sample, cheaper per call than a
+        run of length 1 through ``run``'s entry (``benchmarks/bench_update.py``). ``update`` uses
         it only when that costs no compilation: compiled at install (RLS's
         default form, n ≤ 16, one output), in numba's cache folder, or compiled
         by this method earlier (then it is cached on disk like every kernel).

@@ -41,14 +41,11 @@ __all__ = ["FORMS", "AUTO_SQRT_ABOVE", "resolve_form", "block_from_T", "T_from_b
 
 FORMS = ("auto", "ud", "sqrt", "covariance")
 #: ``form="auto"`` takes the square-root form for n above this; None: never.
-#: Measured (benchmarks/bench_rls.py --forms, same-run ratios to the fastest C loop,
-#: 2 shared cores, quiet machine): since the vectorised Potter sweep the square-root
-#: form is the faster at n = 16, 32, 64 (1.86/0.63/0.61 x against U-D's
-#: 1.09/0.38/0.35 x); sqrt/U-D is 1.08, 1.01, 0.96 at n = 10, 12, 14 (a tie) and
-#: 1.34, 1.60 at n = 20, 24: the switch is at n >= 16. Above FORMS_SPECIALISED_N both
-#: forms are the run-time-n kernels, and there U-D is the faster (n = 65: 0.65 against
-#: 0.42 M updates/s, n = 100: 0.26 against 0.20) and compiles in 1.8-1.9 s against
-#: 2.7-3.2 s: "auto" is U-D again from n = 65 on. An exact diffuse start
+#: ``benchmarks/bench_rls.py --forms`` shows the choice: since the vectorised Potter
+#: sweep the square-root form is the faster from n = 16 to 64, the two tie at
+#: n = 10..14, so the switch is at n >= 16. Above FORMS_SPECIALISED_N both forms are
+#: the run-time-n kernels, and there U-D is the faster and compiles sooner: "auto"
+#: is U-D again from n = 65 on. An exact diffuse start
 #: (``P0="diffuse"``) stays in U-D (it hands over to U-D factors); ``run(stats=True)``
 #: continues an estimator in U-D form (:meth:`FormsMixin._before_stats`).
 AUTO_SQRT_ABOVE = 15
