@@ -217,9 +217,8 @@ def constrained_lstsq(A, b, C=None, d=None, *, G=None, h=None, lb=None, ub=None,
     orders of magnitude. With inequalities the
     multipliers satisfy :math:`2A^T(A\hat x - b) + C^T\hat z + G^T\mu +
     \nu_{ub} - \nu_{lb} = 0`, :math:`\mu, \nu \ge 0` and complementary
-    slackness. Source: the seed document
-    ``shared/seeds/constrained-least-squares.ja.txt`` (KKT matrix and
-    ``cls_solve``).
+    slackness. Source: Boyd and Vandenberghe (2018), §16.2 (the KKT
+    equations, eq. 16.4) and §16.3 (the QR solution, their ``cls_solve``).
 
     References
     ----------
