@@ -64,7 +64,8 @@ nitpicky = False  # references to names outside the site (numpy.ndarray) stay pl
 extlinks = {"doi": ("https://doi.org/%s", "doi:%s")}
 
 # --- MyST --------------------------------------------------------------------
-myst_enable_extensions = ["dollarmath", "colon_fence"]
+# No MyST extensions: the pages write their formulas in Unicode and use plain
+# CommonMark (+ tables); dollarmath would turn a "$" pair of a future page into math.
 myst_heading_anchors = 3  # the pages link to their own sections (#lms-and-nlms)
 
 suppress_warnings = []  # none: every warning is a fault to fix
