@@ -282,7 +282,7 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     weights : array_like, shape (N,), optional
         wₖ ≥ 0 (default 1).
     ridge : float
-        ≥ 0; the Tikhonov term (RLS note: P[N] = (Σ φφᵀ + αI)⁻¹).
+        ≥ 0; the Tikhonov term (as in ridge-regularised RLS: P[N] = (Σ φφᵀ + αI)⁻¹).
 
     Returns
     -------

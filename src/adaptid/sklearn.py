@@ -112,7 +112,7 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
         Standard errors of ``[coef_, intercept_]`` (the intercept last, when
         ``fit_intercept``), by the same rule; set like ``sigma2_``.
     n_features_in_ : int
-    feature_names_in_ : ndarray of str, shape (n_features_in_,)
+    feature_names_in_ : ndarray of str, shape (``n_features_in_``,)
         Only when X had string column names (a pandas DataFrame).
 
     References

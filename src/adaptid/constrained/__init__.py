@@ -1,8 +1,9 @@
 r"""Constrained least squares and its control applications.
 
 Boyd & Vandenberghe (2018), *Introduction to Applied Linear Algebra*,
-ch. 16–17, as summarised in the seed document
-``shared/seeds/constrained-least-squares.ja.txt``:
+ch. 16 (the problem and its piecewise-polynomial example, the KKT
+equations, eq. 16.4, and their solution by QR, §16.3) and ch. 17 (linear
+quadratic control and state estimation):
 
 * :func:`constrained_lstsq` — ``min ‖Ax − b‖²`` s.t. ``Cx = d`` (exact, by
   QR or by the KKT system), plus ``Gx ≤ h`` and bounds (QP solver Clarabel

@@ -191,7 +191,7 @@ def constrained_lstsq(A, b, C=None, d=None, *, G=None, h=None, lb=None, ub=None,
     -----
     The solution is unique iff ``C`` has full row rank and ``[A; C]`` full
     column rank (Boyd & Vandenberghe (2018), §16.1). It satisfies the KKT
-    equations (ibid., §16.2; the seed document's "KKT条件")
+    equations (ibid., §16.2, eq. 16.4)
 
     .. math::
 
@@ -217,9 +217,8 @@ def constrained_lstsq(A, b, C=None, d=None, *, G=None, h=None, lb=None, ub=None,
     orders of magnitude. With inequalities the
     multipliers satisfy :math:`2A^T(A\hat x - b) + C^T\hat z + G^T\mu +
     \nu_{ub} - \nu_{lb} = 0`, :math:`\mu, \nu \ge 0` and complementary
-    slackness. Source: the seed document
-    ``shared/seeds/constrained-least-squares.ja.txt`` (KKT matrix and
-    ``cls_solve``).
+    slackness. Source: Boyd and Vandenberghe (2018), §16.2 (the KKT
+    equations, eq. 16.4) and §16.3 (the QR solution, their ``cls_solve``).
 
     References
     ----------
@@ -374,8 +373,7 @@ def multi_objective_lstsq(As, bs, weights) -> MultiObjectiveResult:
     With the objectives ``(A, b)`` and ``(C, d)`` and a large weight on the
     second, this is the penalty view of the constrained problem in the
     reference: as λ → ∞ its solution tends to that of
-    :func:`constrained_lstsq` (Boyd & Vandenberghe (2018), §15.1 and §16.1;
-    seed document ``constrained-least-squares.ja.txt``, "複数目的関数").
+    :func:`constrained_lstsq` (Boyd & Vandenberghe (2018), §15.1 and §16.1).
 
     Parameters
     ----------

@@ -248,8 +248,7 @@ def lq_control(A, B, C, x_init, x_des, T, rho) -> LQControlResult:
     Notes
     -----
     Source: Boyd & Vandenberghe (2018), §17.2 "Linear quadratic control"
-    (the stacked matrices Ã, C̃); the seed document ``constrained-least-squares.ja.txt``
-    ("線形二次制御", function ``lqc`` and its example: the 3-state system,
+    (the stacked matrices Ã, C̃, and its example: the 3-state system,
     ``T = 100``, ``ρ = 0.2``).
 
     References
@@ -382,8 +381,8 @@ def lq_estimate(A, B, C, y, lam) -> LQEstimateResult:
     Notes
     -----
     Source: Boyd & Vandenberghe (2018), §17.3 "State estimation"
-    (the stacked matrices Ã, C̃); the seed document ``constrained-least-squares.ja.txt``
-    ("線形二次状態推定", double integrator, ``T = 100``, ``λ = 10³``).
+    (the stacked matrices Ã, C̃, and its example: a double integrator,
+    ``T = 100``, ``λ = 10³``).
 
     References
     ----------
@@ -436,8 +435,7 @@ def lq_estimate_cv(A, B, C, y, lams, *, holdout=0.2, rng=None) -> LQCVResult:
     Notes
     -----
     Source: Boyd & Vandenberghe (2018), §17.3 ("the parameter λ ... chosen
-    by validation"); the seed document ``constrained-least-squares.ja.txt``
-    ("クロスバリデーション").
+    by validation").
     """
     A, B, C, y = _validate_estimate_args(A, B, C, y)
     lams = as_float_array(lams, "lams", ndim=1)

@@ -161,9 +161,8 @@ def piecewise_polyfit(x, y, knots, degree, continuity) -> PiecewisePolynomial:
     factorisation, and the continuity rows are scaled by the mean
     neighbouring interval length to the power ``r``. Source: Boyd &
     Vandenberghe (2018), §16.1.1 "Piecewise-polynomial fitting"
-    (two cubics with equal value and slope at the joint); the seed
-    document ``constrained-least-squares.ja.txt`` ("区分多項式による
-    フィッティング", example ``y = x³ − x + 0.4/(1 + 25x²)``).
+    (two cubics with equal value and slope at the joint; the example
+    ``y = x³ − x + 0.4/(1 + 25x²)`` of the tests).
 
     References
     ----------

@@ -73,9 +73,7 @@ class ConstrainedRLS:
     :class:`adaptid.RLS` (U-D factored, compiled) runs on ``z``. The a-priori
     error is the same in both parametrisations. Source: Boyd &
     Vandenberghe (2018), §16.1 (constrained least squares) with the
-    recursive update of the RLS note and Ljung & Söderström (1983); the seed
-    documents ``constrained-least-squares.ja.txt`` and
-    ``rls-ridge-forgetting.ja.txt``.
+    recursive update of Ljung & Söderström (1983), eqs. 2.19–2.20.
 
     Examples
     --------

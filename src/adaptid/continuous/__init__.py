@@ -1,8 +1,8 @@
 r"""Continuous-time TLSM adaptive laws and their exact discretisation.
 
 Yamamoto (1991), "Continuous and discrete time adaptive algorithms by the
-truncated least squares method (TLSM)" (seed document
-``shared/seeds/yamamoto1991-tlsm.ja.txt``):
+truncated least squares method (TLSM)" (equation numbers below are the
+paper's):
 
 * :func:`integrate` — continuous algorithms 1–4 (eqs. 13–15, 19–20, 23–24,
   27–29) and 1'–4' (``t_n=None``; eqs. 16–18, 21–22, 25–26, 30–31) for given
@@ -76,8 +76,8 @@ unchanged, so
        = \texttt{Trajectory.theta[k-1]},\qquad
     Q(t_k) = P_k/\sigma,
 
-and :math:`\hat\theta(t_0) = \theta_0`. (This is the index convention of
-REFERENCES.md: the paper's :math:`\theta_{k+1}` uses data up to k.) The
+and :math:`\hat\theta(t_0) = \theta_0`. (The paper's :math:`\theta_{k+1}`
+is the estimate from data up to k, one index later than adaptid's.) The
 window is the same too: the core's holds :math:`\min(m, M)` samples and the
 continuous one has no data before :math:`t_0`.
 
@@ -111,8 +111,8 @@ difference of eq. 14, :math:`Q_{k+1} = Q_k - \bar h_kQ_k - Q_k\Delta_kQ_k`
 overall. :class:`Discretization` offers both (``run_lemma``,
 ``run_euler``).
 
-Misprints and readings (REFERENCES.md, plus two found here)
------------------------------------------------------------
+Misprints and readings of Yamamoto (1991)
+-----------------------------------------
 * eq. 61: the last f is f̄; eq. 68: :math:`d_k = 1 + \alpha_k\bar f_ks_{1k}`;
   eq. 72: "h_k = λ − 1" is :math:`\bar h_k`; eq. 74:
   :math:`h_k = (e^{-T\lambda_{1,k}}-1)/T`.

@@ -148,7 +148,7 @@ def dc_motor(seed=0, *, duration=60.0, dt=1e-3, noise=True):
     so the discontinuous friction does not degrade the accuracy.
 
     **Excitation.** PWM duty (12-bit, ±12 V bus) = random levels in
-    [−0.5, 1] (|duty| ≥ 0.15, so the motor never stalls in static friction)
+    [−0.5, 1] (``|duty| ≥ 0.15``, so the motor never stalls in static friction)
     held 50–350 ms, plus a multisine of 8 log-spaced tones 3–150 Hz with
     4 % amplitude each scaled, to excite the electrical dynamics. The speed
     is mostly positive but reverses every few seconds, which makes Coulomb

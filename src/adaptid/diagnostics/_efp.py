@@ -69,7 +69,7 @@ class EfpResult:
 
     @property
     def statistic(self) -> float:
-        r"""``sctest``'s statistic: max |process| (the recursive CUSUM divided by 1 + 2t)."""
+        r"""``sctest``'s statistic: max ``|process|`` (the recursive CUSUM divided by 1 + 2t)."""
         return float(np.max(np.abs(self._stat_source)))
 
     @property

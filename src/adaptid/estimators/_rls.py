@@ -25,7 +25,7 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
           + \Big(\prod_{i=1}^{N}\lambda_i\Big)(\theta-\theta_0)^T P_0^{-1}(\theta-\theta_0),
 
     and ``P`` is the inverse of half its Hessian. Per sample
-    (RLS note, 3-step procedure; Ljung & Söderström 1983, eqs. 2.19–2.20):
+    (Ljung & Söderström 1983, eqs. 2.19–2.20, in three steps: error, gain, update):
 
     .. math::
 

@@ -27,7 +27,7 @@ def model_summary(model, *, alpha=0.05, max_lag=25):
     With N the number of prediction errors εₖ, d the number of parameters,
     SSR = Σεₖ² and V = SSR/N:
 
-    * stderr √diag(cov), t = θ/se, p = 2P(T_{N−d} > |t|), the (1 − α)
+    * stderr √diag(cov), t = θ/se, p = ``2P(T_{N−d} > |t|)``, the (1 − α)
       limits θ ± t_{1−α/2, N−d}·se;
     * σ̂² = SSR/(N − d), ℓ = −N/2 (log 2π + log V + 1), AIC = −2ℓ + 2d,
       BIC = −2ℓ + d log N, FPE = V(1 + d/N)/(1 − d/N) (Ljung 1999, eq. 16.31);

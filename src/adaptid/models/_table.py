@@ -164,17 +164,17 @@ def table_regressors(df, y, terms):
 
     **Term specification** (small and explicit):
 
-    ===============================  ==========================================
-    ``"x"`` or ``"x[k]"``            column ``x`` at sample k
-    ``"x[k-2]"``                     column ``x`` two samples back
-    ``"x*z[k-1]"``                   product of factors (any number)
-    ``"sign(x)"``, ``"abs(v[k-1])"`` sign / absolute value of a factor
-    ``"1"``                          the constant 1 (an intercept)
-    ``("x", 2)``                     tuple form of ``"x[k-2]"``, for column
-                                     names with special characters
-    ``("x", 0, "sign")``             tuple form of ``"sign(x)"``
-    ``["x", ("z", 1)]``              a list (or tuple) of factors: their product
-    ===============================  ==========================================
+    ==================================  ============================================
+    ``"x"`` or ``"x[k]"``               column ``x`` at sample k
+    ``"x[k-2]"``                        column ``x`` two samples back
+    ``"x*z[k-1]"``                      product of factors (any number)
+    ``"sign(x)"``, ``"abs(v[k-1])"``    sign / absolute value of a factor
+    ``"1"``                             the constant 1 (an intercept)
+    ``("x", 2)``                        tuple form of ``"x[k-2]"``, for column
+                                        names with special characters
+    ``("x", 0, "sign")``                tuple form of ``"sign(x)"``
+    ``["x", ("z", 1)]``                 a list (or tuple) of factors: their product
+    ==================================  ============================================
 
     A string that is exactly a column name is always that column (so names
     such as ``"i*R"`` can be used as they are). Leads (``x[k+1]``) are not
