@@ -9,7 +9,8 @@ prior, nonzero θ₀), each with one and with two outputs — and for
 
 * ``update`` called N times equals ``run`` bit for bit (θ after every sample,
   the a-priori errors, P, the counts), with per-sample weights, per-sample
-  forgetting where the method takes it, and skipped NaN samples;
+  forgetting where the method takes it, and skipped NaN samples; also through
+  the narrow step entry of ``compile_update()`` where the method has one;
 * ``run_batched`` equals ``run`` on each stream alone, bit for bit;
 * stopping in the middle — a state file (``save_state`` / ``load_state``), a
   state dict (``get_state`` / ``from_state``) or a pickle — and going on
@@ -300,6 +301,28 @@ def test_update_n_times_equals_run(case, nan_policy):
         np.testing.assert_array_equal(traj.theta[7], traj.theta[6])
         assert np.isnan(traj.error[7]).all() and np.isnan(traj.error[30]).all()
     assert np.isfinite(traj.theta).all()
+
+
+@pytest.mark.parametrize("nan_policy", NAN_POLICIES)
+@pytest.mark.parametrize("case", FACTORY_CASES, ids=[c[0] for c in FACTORY_CASES])
+def test_update_through_the_step_entry_equals_run(case, nan_policy):
+    """With ``compile_update()`` (the narrow step entry, where the method has one)
+    ``update`` is still bit for bit a step of ``run``."""
+    _, method, _, kw, _ = case
+    stepped = _make(case, nan_policy)
+    # RLS's fast forms have one: no forgetting strategy, no P_max, a finite prior
+    has_one = method == "rls" and _per_sample_forgetting(case) and "P_max" not in kw \
+        and not isinstance(kw.get("P0"), str)
+    assert stepped.compile_update() == has_one
+    if not has_one:
+        return
+    skip = nan_policy == "skip"
+    Phi, y, kw = _data(case, nan=skip, seed=6)
+    ran = _make(case, nan_policy)
+    traj = ran.run(Phi, y, **kw)
+    errors = [stepped.update(Phi[k], y[k], **_step_kw(kw, k)) for k in range(N_SAMPLES)]
+    np.testing.assert_array_equal(traj.error, np.array(errors))
+    _assert_same_state(ran, stepped)
 
 
 @pytest.mark.parametrize("nan_policy", NAN_POLICIES)
