@@ -8,7 +8,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 # The suite already runs one worker per core: `adaptid demo`'s helper process
 # that compiles kernels on the second core (adaptid.cli._prewarm) would only
-# compete with the other worker. tests/test_cli_prewarm.py switches it on.
+# compete with the other worker. tests/cli/test_cli_prewarm.py switches it on.
 os.environ.setdefault("ADAPTID_PREWARM", "0")
 
 import numpy as np  # noqa: E402
@@ -26,10 +26,12 @@ SOAK = os.environ.get("ADAPTID_SOAK") == "1"
 # and run on those specialised kernels; every other file (state files,
 # fuzzing, diffuse starts, statistics, segments, strategies, models,
 # diagnostics, CLI, fleet, scikit-learn, ...) runs on the size-generic
-# kernels, one compilation for every n. Both give bit for bit the same results: tests/test_kernels_scratch.py
-# checks it for every algorithm, form, diffuse start and the statistics;
+# kernels, one compilation for every n. Both give bit for bit the same results:
+# tests/kernels/test_kernels_scratch.py checks it for every algorithm, form, diffuse
+# start and the statistics;
 # tests/test_fit_stats_agree.py between the shell and Python.
-# ADAPTID_MAX_SPECIALISED_N in the environment applies to every file.
+# ADAPTID_MAX_SPECIALISED_N in the environment applies to every file. The names are
+# the files' base names, whichever folder of tests/ holds them.
 SPECIALISED_FILES = {
     "test_recursive", "test_kernels_scratch", "test_codegen",
     "test_benchmarks_smoke", "test_kernel_cache", "test_environment", "test_rls_forms",

@@ -51,7 +51,7 @@ def _env(tmp_path, **extra):
     env = {k: v for k, v in os.environ.items()
            if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME", "PYTHONPATH")}
     # ADAPTID_AOT=0: these tests are about numba's cache folder, not the kernels
-    # compiled at install (tests/test_aot.py), which would serve its misses
+    # compiled at install (tests/kernels/test_aot.py), which would serve its misses
     env.update(HOME=str(home), XDG_CACHE_HOME=str(home / ".cache"),
                PYTHONPATH=str(SRC), PYTHONDONTWRITEBYTECODE="1", ADAPTID_AOT="0")
     env.update({k: str(v) for k, v in extra.items()})

@@ -5,7 +5,7 @@ Run (from the repository root)::
     git archive f66d1cc src | tar -x -C /tmp/f66
     PYTHONPATH=/tmp/f66/src python tests/data/state_format2/make_fixtures.py
 
-The data are seeded and re-created by tests/test_state_files_hostile.py, which
+The data are seeded and re-created by tests/estimators/test_state_files_hostile.py, which
 checks that the current code loads these files and that the loaded estimators
 continue exactly like estimators run by the current code on the same data.
 """

@@ -1,4 +1,4 @@
-# Reference values of R strucchange for adaptid's tests (tests/test_strucchange_r.py).
+# Reference values of R strucchange for adaptid's tests (tests/diagnostics/test_strucchange_r.py).
 # Run from the repository root:
 #   Rscript tests/reference/strucchange/make_reference.R
 # Needs R with strucchange (Debian: r-base-core r-cran-strucchange 1.5-3-1) and

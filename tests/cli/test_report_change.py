@@ -5,7 +5,7 @@ of change" only when every test agrees.
 The issue's case: 5000 samples, x1's coefficient jumps from 1.0 to 1.5 half
 way through; the recursive CUSUM alone (the old report) said "no evidence of
 change". Oracles: the data's known break, and adaptid.diagnostics' tests
-(checked against R strucchange in tests/test_strucchange_r.py).
+(checked against R strucchange in tests/diagnostics/test_strucchange_r.py).
 """
 
 import re

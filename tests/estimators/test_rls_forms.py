@@ -134,7 +134,7 @@ def test_state_and_state_file_round_trips_are_exact(rng, form, tmp_path):
 
 def test_state_files_written_before_forms_load_as_ud():
     from pathlib import Path
-    path = Path(__file__).parent / "data" / "state_format2" / "rls.npz"
+    path = Path(__file__).resolve().parents[1] / "data" / "state_format2" / "rls.npz"
     est = adaptid.load_state(path)
     assert est.form == "ud"
     n = est.n_params

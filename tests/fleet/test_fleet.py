@@ -43,7 +43,7 @@ def truth_of(df):
 # The equality tests below compare with loop_reference, whose change flag is
 # Brown-Durbin-Evans' CUSUM of the a-priori errors: they pin that test (the
 # default supF, with p-values and multiple-testing control, is checked in
-# tests/test_fleet_change.py against adaptid.diagnostics and statsmodels).
+# tests/fleet/test_fleet_change.py against adaptid.diagnostics and statsmodels).
 identify = functools.partial(fleet.identify, change_test="a-priori")
 
 

@@ -362,7 +362,7 @@ def test_export_c_continues_the_fit(tmp_path, rng):
     # the state at export is the printed estimate (%.17g round trip: exact)
     np.testing.assert_array_equal(first, out_half["theta"])
     # C (no contraction) against the compiled kernel: rounding differences only, documented
-    # in tests/test_codegen.py as <= 1e-12 relative over 1e5 samples
+    # in tests/codegen/test_codegen.py as <= 1e-12 relative over 1e5 samples
     np.testing.assert_allclose(last, out_full["theta"], rtol=1e-12)
 
 

@@ -282,7 +282,7 @@ def test_monitor_reset_example_detects_the_jump_once():
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "examples" / "monitor_reset.py"
+    path = Path(__file__).resolve().parents[2] / "examples" / "monitor_reset.py"
     spec = importlib.util.spec_from_file_location("monitor_reset_example", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -300,7 +300,7 @@ def test_structural_change_page_code_runs():
     import matplotlib
 
     matplotlib.use("Agg")
-    page = Path(__file__).resolve().parents[1] / "docs" / "structural_change.md"
+    page = Path(__file__).resolve().parents[2] / "docs" / "structural_change.md"
     blocks = re.findall(r"^```python\n(.*?)^```", page.read_text(encoding="utf-8"), re.S | re.M)
     assert blocks
     ns = {"__name__": "docs_structural_change"}
@@ -340,7 +340,7 @@ def test_breakpoints_benchmark_runs_and_agrees_with_ruptures(tmp_path):
     import sys
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     out = tmp_path / "bp.json"
     env = dict(os.environ, PYTHONPATH=str(root / "src"))
     proc = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_breakpoints.py"),

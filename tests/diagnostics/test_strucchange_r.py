@@ -27,7 +27,7 @@ import pytest
 
 from adaptid.diagnostics import Monitor, breakpoints, chow, efp, fstats, nyblom_hansen
 
-REF_DIR = Path(__file__).resolve().parent / "reference" / "strucchange"
+REF_DIR = Path(__file__).resolve().parents[1] / "reference" / "strucchange"
 REF = json.loads((REF_DIR / "reference.json").read_text())
 RTOL = 1e-9
 

@@ -90,7 +90,7 @@ def test_multiple_testing_modes(df):
 
 def test_size_under_no_change_is_controlled():
     """30 healthy devices: BH at 5 % flags none in this draw (each device's supF
-    is at its nominal size; tests/test_strucchange_mc.py checks the size)."""
+    is at its nominal size; tests/diagnostics/test_strucchange_mc.py checks the size)."""
     healthy = _fleet(seed=7, n_devices=30)
     healthy = healthy[~healthy["dev"].isin(JUMPING)]
     assert not _identify(healthy)["change"].any()

@@ -405,7 +405,7 @@ def test_example_runs(tmp_path):
     import sys
     from pathlib import Path
 
-    script = Path(__file__).resolve().parents[1] / "examples" / "arx_models.py"
+    script = Path(__file__).resolve().parents[2] / "examples" / "arx_models.py"
     out = subprocess.run([sys.executable, str(script), "--no-plot", "-n", "4000"],
                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert out.returncode == 0, out.stderr

@@ -18,7 +18,7 @@ from adaptid.datasets import (
     matlab_filtfilt,
 )
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 # sha256 and sizes as recorded in shared/data/emps/SOURCE.md and
 # shared/data/daisy/SOURCE.md (checksums of the upstream files).

@@ -432,7 +432,7 @@ def test_docs_example_runs(tmp_path, monkeypatch):
     the simulated plant's true values) and counts the lost sample."""
     import re
     from pathlib import Path
-    page = (Path(__file__).resolve().parents[1] / "docs" / "embedded.md").read_text()
+    page = (Path(__file__).resolve().parents[2] / "docs" / "embedded.md").read_text()
     py = re.findall(r"^```python\n(.*?)^```", page, re.S | re.M)
     c = re.findall(r"^```c\n(.*?)^```", page, re.S | re.M)
     monkeypatch.chdir(tmp_path)
@@ -457,7 +457,7 @@ def test_benchmark_scripts_run(script, args):
     import os
     import sys
     from pathlib import Path
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     for tool in ("gcc", "arm-none-eabi-gcc", "arm-none-eabi-size", "arm-none-eabi-nm"):
         _tool(tool)
     env = dict(os.environ, PYTHONPATH=str(root / "src"))

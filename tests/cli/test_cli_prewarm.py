@@ -42,7 +42,7 @@ DEMO_WINDOW_FIT = textwrap.dedent("""
 
 def _python(code, cache, tmp_path, **env):
     # ADAPTID_AOT=0: the helper's work is to fill numba's cache folder; the kernels
-    # compiled at install (tests/test_aot.py) would serve the command without it
+    # compiled at install (tests/kernels/test_aot.py) would serve the command without it
     full = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(SRC), ADAPTID_AOT="0",
                 **env)
     proc = subprocess.run([sys.executable, "-c", code], env=full, cwd=tmp_path,

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "emps.py"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "emps.py"
 
 # Janot, Gautier & Brunot (2019) §3.4, symmetric friction model
 THETA = [95.1089, 203.5034, 20.3935, -3.1648]

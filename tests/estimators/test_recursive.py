@@ -80,7 +80,7 @@ def test_rls_property_cost(n, N, lam, logP0, seed, p):
     theta0 = rng.standard_normal(n if p is None else (n, p))
     P0 = 10.0 ** logP0
     # the size-generic kernel: one compilation for the six sizes drawn (the
-    # specialised kernels equal it bit for bit: tests/test_kernels_scratch.py)
+    # specialised kernels equal it bit for bit: tests/kernels/test_kernels_scratch.py)
     with size_generic_kernels():
         est = adaptid.RLS(n, forgetting=lam, theta0=theta0, P0=P0, n_outputs=p)
     w = rng.uniform(0.1, 2.0, N)

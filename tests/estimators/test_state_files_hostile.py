@@ -32,7 +32,7 @@ import adaptid
 from adaptid import KalmanRLS, RLS, SlidingWindowRLS, StateFileError
 from adaptid.constrained import ConstrainedRLS
 
-FIXTURES = Path(__file__).resolve().parent / "data" / "state_format2"
+FIXTURES = Path(__file__).resolve().parents[1] / "data" / "state_format2"
 
 
 # ------------------------------------------------------------------ helpers

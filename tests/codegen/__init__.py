@@ -1,0 +1,1 @@
+"""Tests of adaptid.codegen: the generated C against the library's own runs."""

@@ -1,0 +1,1 @@
+"""Tests of adaptid.constrained: constrained least squares, its applications, ConstrainedRLS."""

@@ -1,0 +1,1 @@
+"""Tests of adaptid.continuous: continuous-time laws and their discretisation."""

@@ -1,0 +1,1 @@
+"""Tests of adaptid.datasets: the packaged data sets and the examples built on them."""

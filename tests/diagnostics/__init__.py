@@ -1,0 +1,1 @@
+"""Tests of adaptid.diagnostics: residual checks and the structural-change tests."""

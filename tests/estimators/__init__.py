@@ -1,0 +1,1 @@
+"""Tests of adaptid.estimators: the recursive estimators, their state files, the contract."""

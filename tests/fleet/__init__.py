@@ -1,0 +1,1 @@
+"""Tests of adaptid.fleet: identification over many devices on Dask."""

@@ -1,0 +1,1 @@
+"""Tests of adaptid.models: model objects, regressor builders and the identification workflow."""
