@@ -25,7 +25,7 @@ from ._errors import CLIError
 
 __all__ = ["MethodSpec", "EquationFit", "fit_equation", "run_chunked", "METHODS"]
 
-from adaptid.estimators import METHODS as _RECURSIVE
+from adaptid.estimators._factory import METHODS as _RECURSIVE
 
 METHODS = _RECURSIVE + ("batch",)
 
@@ -104,7 +104,7 @@ class MethodSpec:
 
     def adopt(self, est, n: int, nan_policy: str, path):
         """Check a resumed estimator against the options given; set its nan policy."""
-        from adaptid.estimators import method_of
+        from adaptid.estimators._factory import method_of
 
         method = method_of(est)
         if self.method is not None and self.method != method:
@@ -228,7 +228,7 @@ def _cov_or_nan(est):
 
 
 def _method_options(method):
-    from adaptid.estimators import method_options
+    from adaptid.estimators._factory import method_options
 
     return method_options(method)
 

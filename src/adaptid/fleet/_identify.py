@@ -10,7 +10,7 @@ import uuid
 import numpy as np
 
 from .._validation import check_choice, check_int, check_scalar, param_error
-from ..estimators import METHODS
+from ..estimators._factory import METHODS
 
 __all__ = ["identify"]
 
