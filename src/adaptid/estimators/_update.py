@@ -9,8 +9,8 @@ An update is bit for bit a step of ``run`` and takes one of two paths:
   (:attr:`StepArrays.R`), and the call unboxes two arrays instead of eleven;
 * **the run of length 1** — otherwise: the algorithm's compiled ``run`` called on
   one-sample arrays of exactly the types ``run`` passes (:class:`StepArrays`), with
-  the arguments kept between calls (:class:`RunArgs`) and rebuilt only when the
-  state array or the options change.
+  the arguments (:class:`RunArgs`) kept between calls (:class:`RunCall`) and
+  rebuilt only when the state array or the options change.
 
 The functions taking ``self`` are methods of
 :class:`~adaptid.estimators._engine.RecursiveEstimator` (bound there by name).
@@ -18,6 +18,7 @@ The functions taking ``self`` are methods of
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -25,28 +26,42 @@ import numpy as np
 from .._kernels import _step
 from ._inputs import F64, read_only
 
-__all__ = ["StepArrays", "RunArgs", "update", "compile_update", "find_step", "step_kernel",
-           "skipped_step"]
+__all__ = ["StepArrays", "RunArgs", "RunCall", "update", "compile_update", "find_step",
+           "step_kernel", "skipped_step"]
 
 
 class RunArgs(NamedTuple):
     """The arguments of an algorithm's compiled ``run`` for a run of length 1, in the
     order of :class:`adaptid._kernels.Entries`'s common signature."""
 
+    S: Any
+    Phi: Any
+    Y: Any
+    lam: Any
+    w: Any
+    Th: Any
+    E: Any
+    skipped: Any
+    Lk: Any
+    St: Any
+    opt: Any
+    mat: Any
+    ntag: Any
+    ptag: Any
+
+
+@dataclass(slots=True)
+class RunCall:
+    """The run of length 1 that ``update`` makes, kept between calls: its arguments
+    (:class:`RunArgs` as a plain tuple, which ``*args`` passes on without a copy)
+    and the objects they were built for, the state array ``S`` and the options
+    ``opt`` and ``mat`` (rebuilt when one of them is another object). Slots: the
+    three checks of each update cost what reading a tuple does."""
+
     S: Any = None
-    Phi: Any = None
-    Y: Any = None
-    lam: Any = None
-    w: Any = None
-    Th: Any = None
-    E: Any = None
-    skipped: Any = None
-    Lk: Any = None
-    St: Any = None
     opt: Any = None
     mat: Any = None
-    ntag: Any = None
-    ptag: Any = None
+    args: tuple = ()
 
 
 class StepArrays:
@@ -71,8 +86,7 @@ class StepArrays:
         self.skipped = np.zeros(1, dtype=np.bool_)
         self.Lk = np.empty(1 if reports else 0)
         self.reports = reports
-        self.call = RunArgs()  # the kernel's arguments, rebuilt when S or the options change
-        self.args = tuple(self.call)  # the same as a plain tuple
+        self.call = RunCall()  # the kernel's arguments, rebuilt when S or the options change
         self.D = None  # the window's pivots (a view of S), checked after each step
         # the packed sample of a narrow step entry (adaptid._kernels._step): φ, y, λ, w, ε,
         # the threshold, the skipped flag in one row R of W
@@ -153,15 +167,15 @@ def update(self, phi, y, *, weight=1.0, forgetting=None):
         a.lw[1] = a.w_now = w
     call = a.call
     if call.S is not S or call.opt is not self._opt or call.mat is not self._mat:
-        call = a.call = RunArgs(S, a.Phi, a.Y, a.lam, a.w, a.Th, a.E, a.skipped, a.Lk, None,
-                                self._opt, self._mat, self._ntag, self._ptag)
-        a.args = tuple(call)  # a plain tuple: ``*args`` passes it on without a copy
+        args = RunArgs(S, a.Phi, a.Y, a.lam, a.w, a.Th, a.E, a.skipped, a.Lk, None,
+                       self._opt, self._mat, self._ntag, self._ptag)
+        call = a.call = RunCall(S, self._opt, self._mat, tuple(args))
         a.D = self._ud_views(S)[1] if self._rebuilds else None
     if self._update_ep is not None:
-        code = self._update_ep(*a.args)
+        code = self._update_ep(*call.args)
     else:
-        code = self._kern.run(*a.args)
-        self._update_ep = _step.entry_point(self._kern.run, a.args)
+        code = self._kern.run(*call.args)
+        self._update_ep = _step.entry_point(self._kern.run, call.args)
     e = a.E.item(0)  # a Python float
     if e != e and a.skipped[0]:  # a skipped sample (its error is NaN)
         a.skipped[0] = False
