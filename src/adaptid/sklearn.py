@@ -26,7 +26,7 @@ except ImportError:  # pragma: no cover - scikit-learn 1.4 / 1.5
 import numpy as np
 
 from ._validation import as_float_array, check_choice, param_error
-from .estimators import METHODS as _FACTORY_METHODS
+from .estimators._factory import METHODS as _FACTORY_METHODS
 
 __all__ = ["RLSRegressor"]
 

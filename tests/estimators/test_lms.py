@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 import adaptid
+from adaptid.estimators._factory import method_of
 
 import padasip  # noqa: E402 - the test extra installs it (missing: a failure)
 
@@ -278,7 +279,7 @@ def test_no_covariance_no_forgetting(rng):
         adaptid.estimator("lms", 2, step=0.1, P0=1.0)
     with pytest.raises(TypeError, match="step must be given"):
         adaptid.estimator("nlms", 2)
-    assert adaptid.estimators.method_of(adaptid.estimator("nlms", 2, step=0.1)) == "nlms"
+    assert method_of(adaptid.estimator("nlms", 2, step=0.1)) == "nlms"
 
 
 def test_divergence_warns(rng):

@@ -490,3 +490,35 @@ def test_public_names_do_not_leak():
     public = {k for k in dir(a) if not k.startswith("_")}
     assert public <= set(a.__all__) | {"forgetting", "constrained", "continuous", "models", "estimators", "plot", "io",
                                        "diagnostics", "datasets", "fleet", "sklearn"}
+
+
+def test_estimators_exports_only_public_names():
+    """``adaptid.estimators`` exports the contract's names only; the engine, the
+    factory's tables and the state-class registry stay in their private modules."""
+    import adaptid.estimators as e
+    assert set(e.__all__) == {"RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS",
+                              "Trajectory", "SegmentResult", "WindowStats", "estimator",
+                              "recursive_fit_stats", "RecursiveFitStats", "KernelSettings",
+                              "load_state", "save_state", "size_generic_kernels"}
+    public = {k for k in dir(e) if not k.startswith("_")}
+    assert public == set(e.__all__)
+
+
+@pytest.mark.parametrize("method", ["rls", "window", "kalman", "lms", "nlms"])
+def test_each_algorithm_declares_one_spec(method):
+    """An algorithm is declared by one AlgorithmSpec (no boolean class flags); its
+    options are the factory's for its method (the state's options, in order)."""
+    from adaptid.estimators._engine import RecursiveEstimator
+    from adaptid.estimators._factory import method_options
+    from adaptid.estimators._spec import AlgorithmSpec
+    cls = type(adaptid.estimator(method, 2, **{"window": {"window": 5},
+                                               "kalman": {"process_cov": 0.1},
+                                               "lms": {"step": 0.1},
+                                               "nlms": {"step": 0.1}}.get(method, {})))
+    assert isinstance(cls.spec, AlgorithmSpec) and cls.spec.method == method
+    flags = ("_code_is_rebuilds", "_reports_forgetting", "_has_covariance",
+             "_supports_stats", "_stats_from_buffer", "_kind", "_method")
+    assert not any(hasattr(cls, f) for f in flags)
+    common = {"theta0", "P0", "n_outputs", "nan_policy", "windup_threshold"}
+    assert set(cls.spec.options) - common == set(method_options(method)) - common
+    assert issubclass(cls, RecursiveEstimator) and RecursiveEstimator.spec is None

@@ -380,7 +380,7 @@ def fleet(
         nan_policy = {"skip": "skip", "error": "raise"}.get(nan.strip().lower())
         if nan_policy is None:
             raise CLIError(f"--nan must be 'skip' or 'error', got {nan!r}")
-        from adaptid.estimators import METHODS
+        from adaptid.estimators._factory import METHODS
 
         if method.strip().lower() not in METHODS:
             raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}")

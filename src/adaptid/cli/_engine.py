@@ -21,9 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from adaptid.estimators import METHODS as _RECURSIVE
-from adaptid.estimators import method_options
-from adaptid.estimators._factory import required_options
+from adaptid.estimators._factory import METHODS as _RECURSIVE
+from adaptid.estimators._factory import method_options, required_options
 
 from ._errors import CLIError
 
@@ -113,7 +112,7 @@ class MethodSpec:
 
     def adopt(self, est, n: int, nan_policy: str, path):
         """Check a resumed estimator against the options given; set its nan policy."""
-        from adaptid.estimators import method_of
+        from adaptid.estimators._factory import method_of
 
         method = method_of(est)
         if self.method is not None and self.method != method:

@@ -73,7 +73,7 @@ __all__ = [
 
 
 def _register():
-    from ..estimators import register_state_class
+    from ..estimators._statefile import register_state_class
     register_state_class("ConstrainedRLS", ConstrainedRLS)
 
 

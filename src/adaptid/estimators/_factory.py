@@ -56,7 +56,7 @@ def _classes():
 
 def method_of(est) -> str:
     """The method name of an estimator made by :func:`estimator` (its inverse)."""
-    name = getattr(type(est), "_method", None)
+    name = getattr(getattr(type(est), "spec", None), "method", None)
     if name in _CLASSES and type(est).__name__ == _CLASSES[name]:
         return name
     raise param_error("estimator", f"an estimator of one of the methods {', '.join(METHODS)}",

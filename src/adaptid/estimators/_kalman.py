@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import _config, _kernels
+from .. import _config
 from .._validation import as_float_array, check_int, check_scalar, param_error, symmetrised
 from ._engine import RecursiveEstimator
+from ._spec import AlgorithmSpec
 
 __all__ = ["KalmanRLS"]
 
@@ -68,8 +69,11 @@ class KalmanRLS(RecursiveEstimator):
        Methods*, 2nd ed., Oxford University Press, 2012, §5.2, §6.4.
     """
 
-    _kind = "KalmanRLS"
-    _method = "kalman"  # its name for adaptid.estimator
+    spec = AlgorithmSpec(
+        method="kalman",
+        kernels={"default": "KALMAN", "diffuse": "KALMAN_DIFFUSE"},
+        options=("process_cov", "noise_var", "nan_policy", "windup_threshold"),
+        diffuse_tail=lambda n, p: 2 + 2 * n * n)  # [flag, rank steps, P∞, P*]
 
     def __init__(self, n_params, *, process_cov, noise_var=1.0, theta0=None, P0=1e4,
                  nan_policy="raise", n_outputs=None, windup_threshold=None):
@@ -88,18 +92,6 @@ class KalmanRLS(RecursiveEstimator):
         self.noise_var = check_scalar(noise_var, "noise_var", low=0.0, low_open=True)
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
                          n_outputs=n_outputs, windup_threshold=windup_threshold)
-
-    def _options(self):
-        return {"process_cov": self.process_cov.copy(), "noise_var": self.noise_var,
-                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
-
-    # what the engine needs to know
-    def _entries(self):
-        return _kernels.KALMAN_DIFFUSE if self._diffuse else _kernels.KALMAN
-
-    def _diffuse_tail(self):
-        n = self.n_params
-        return 2 + 2 * n * n if self._diffuse else 0  # [flag, rank steps, P∞, P*]
 
     def _fill_diffuse(self, T):
         n = self.n_params

@@ -6,10 +6,10 @@ import warnings
 
 import numpy as np
 
-from .. import _kernels
 from .._exceptions import DivergenceWarning
 from .._validation import check_scalar
 from ._engine import RecursiveEstimator
+from ._spec import AlgorithmSpec
 
 __all__ = ["LMS", "NLMS"]
 
@@ -20,25 +20,12 @@ _MATLAB_BIAS = float(np.finfo(np.float64).eps)
 class _Gradient(RecursiveEstimator):
     """The engine for a state of θ only (no covariance, no forgetting)."""
 
-    _has_covariance = False
-    _normalised = False
-
     def __init__(self, n_params, *, step, theta0=None, nan_policy="raise", n_outputs=None):
         self.step = check_scalar(step, "step", low=0.0, low_open=True)
         super().__init__(n_params, theta0=theta0, nan_policy=nan_policy, n_outputs=n_outputs)
 
-    # what the engine needs to know
-    def _entries(self):
-        return _kernels.NLMS if self._normalised else _kernels.LMS
-
     def _kernel_options(self):
         return np.array([np.inf, self.step, getattr(self, "eps", 0.0)]), np.zeros((1, 1))
-
-    def _state_length(self):
-        return self.n_params * self.n_outputs
-
-    def _fill_initial(self, S):
-        S[:] = self.theta0.ravel()
 
     def _warn_nonpositive(self, where):
         if self._windup_warned:
@@ -118,11 +105,8 @@ class LMS(_Gradient):
     True
     """
 
-    _kind = "LMS"
-    _method = "lms"  # its name for adaptid.estimator
-
-    def _options(self):
-        return {"step": self.step, "nan_policy": self.nan_policy}
+    spec = AlgorithmSpec(method="lms", kernels={"default": "LMS"},
+                         options=("step", "nan_policy"), covariance=False)
 
 
 class NLMS(_Gradient):
@@ -172,15 +156,11 @@ class NLMS(_Gradient):
     True
     """
 
-    _kind = "NLMS"
-    _method = "nlms"  # its name for adaptid.estimator
-    _normalised = True
+    spec = AlgorithmSpec(method="nlms", kernels={"default": "NLMS"},
+                         options=("step", "eps", "nan_policy"), covariance=False)
 
     def __init__(self, n_params, *, step, eps=_MATLAB_BIAS, theta0=None, nan_policy="raise",
                  n_outputs=None):
         self.eps = check_scalar(eps, "eps", low=0.0)
         super().__init__(n_params, step=step, theta0=theta0, nan_policy=nan_policy,
                          n_outputs=n_outputs)
-
-    def _options(self):
-        return {"step": self.step, "eps": self.eps, "nan_policy": self.nan_policy}

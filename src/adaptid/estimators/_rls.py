@@ -4,16 +4,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import _config, _kernels
+from .. import _config
 from .._validation import check_int, check_scalar, param_error
 from ..forgetting import ConstantTrace, EFRA, resolve as _resolve_forgetting
-from ._engine import RecursiveEstimator, _ForgettingMixin
+from ._engine import RecursiveEstimator
+from ._forgetting import ForgettingMixin
 from ._rlsforms import FormsMixin, ntag_for, resolve_form
+from ._spec import AlgorithmSpec
 
 __all__ = ["RLS"]
 
 
-class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
+def _variant(est):
+    """The kernels of an RLS: its exact diffuse start, its strategy (or ``P_max``), or its form."""
+    if est._diffuse:
+        return "diffuse"
+    return est._form if est._fast else "strategy"
+
+
+class RLS(FormsMixin, ForgettingMixin, RecursiveEstimator):
     r"""Recursive least squares with prior (ridge) and exponential forgetting.
 
     After samples 1..N the estimate minimises
@@ -143,8 +152,18 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
     True
     """
 
-    _kind = "RLS"
-    _method = "rls"  # its name for adaptid.estimator
+    spec = AlgorithmSpec(
+        method="rls",
+        kernels={"ud": "RLS", "sqrt": "POTTER", "covariance": "COVARIANCE",
+                 "strategy": "STRATEGY", "diffuse": "RLS_DIFFUSE"},
+        options=("forgetting", "P_max", "nan_policy", "windup_threshold", "form"),
+        variant=_variant,
+        diffuse_tail=lambda n, p: 1 + n * n + n * p,  # [flag, R, z]
+        reports_forgetting=("strategy",),
+        # the statistics hooks are in the U-D stream; the square-root form hands over
+        # to it (FormsMixin._before_stats), the covariance form (MATLAB's arithmetic)
+        # and the strategies have none
+        stats=("ud", "sqrt", "diffuse"))
 
     def __init__(self, n_params, *, forgetting=1.0, P_max=None, theta0=None, P0=1e4,
                  nan_policy="raise", n_outputs=None, windup_threshold=None, form="auto"):
@@ -175,34 +194,6 @@ class RLS(FormsMixin, _ForgettingMixin, RecursiveEstimator):
                 raise param_error("P0", f"with eigenvalues <= (1 - alpha)/(lam delta) = {bound:.4g} "
                                   "for EFRA forgetting (a larger P makes its -delta P^2 term "
                                   "turn P indefinite)", "<a larger P0>")
-
-    def _options(self):
-        return {"forgetting": self._forgetting_option(), "P_max": self.P_max,
-                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold,
-                "form": self._form}
-
-    # what the engine needs to know
-    @property
-    def _reports_forgetting(self):
-        return not self._fast
-
-    @property
-    def _supports_stats(self):
-        # the statistics hooks are in the U-D stream; the square-root form hands over to it
-        # (FormsMixin._before_stats), the covariance form (MATLAB's arithmetic) has none
-        return self._fast and self._form in ("ud", "sqrt")
-
-    def _entries(self):
-        if self._diffuse:
-            return _kernels.RLS_DIFFUSE
-        if not self._fast:
-            return _kernels.STRATEGY
-        return {"ud": _kernels.RLS, "sqrt": _kernels.POTTER,
-                "covariance": _kernels.COVARIANCE}[self._form]
-
-    def _diffuse_tail(self):
-        n, p = self.n_params, self.n_outputs
-        return 1 + n * n + n * p if self._diffuse else 0  # [flag, R, z]
 
     def _kernel_options(self):
         if self._diffuse:

@@ -28,7 +28,7 @@ class KernelSettings:
 
     @classmethod
     def of(cls, est, theta, U, D, diffuse_state=None):
-        method = type(est)._method
+        method = type(est).spec.method
         n = est.n_params
         kw = {}
         if method == "kalman":

@@ -134,7 +134,7 @@ def _build(cls, kind, state):
     if theta0.ndim != 2:
         raise ValueError(f"state['theta0'] must be 2-dimensional (n, p), got shape {theta0.shape}")
     kwargs = dict(theta0=theta0 if not state["single_output"] else theta0[:, 0], **opts)
-    if getattr(cls, "_has_covariance", True) and "P0" not in kwargs:
+    if getattr(getattr(cls, "spec", None), "covariance", True) and "P0" not in kwargs:
         kwargs["P0"] = np.asarray(state["P0"])  # diffuse: P0="diffuse" is an option
     if not state["single_output"]:
         kwargs["n_outputs"] = int(state["n_outputs"])

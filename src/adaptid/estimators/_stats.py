@@ -122,7 +122,7 @@ def recursive_fit_stats(est, Phi, y, *, weights=None, forgetting=None, used=None
         ssr = float(np.sum(c * w * r * r))
     n_eff = float(np.sum(c))
     dof = n_eff - n
-    if not type(est)._has_covariance:  # LMS / NLMS: no P, no standard errors
+    if not type(est).spec.covariance:  # LMS / NLMS: no P, no standard errors
         sigma2 = ssr / dof if dof > 0 else float("nan")
         return RecursiveFitStats(sigma2=sigma2, stderr=np.full(n, np.nan), dof=dof,
                                  n_eff=n_eff, ssr=ssr,

@@ -4,15 +4,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import _config, _kernels
+from .. import _config
 from .._validation import check_int, param_error
 from ..forgetting import resolve as _resolve_forgetting
-from ._engine import RecursiveEstimator, _ForgettingMixin
+from ._engine import RecursiveEstimator
+from ._forgetting import ForgettingMixin
+from ._spec import AlgorithmSpec
 
 __all__ = ["SlidingWindowRLS"]
 
 
-class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
+def _buffer(est):
+    """The window's block after θ, U, D: [log-forgetting, pos, count], its buffer of
+    M samples (M·(n + p + 2) values), then θ, U, D of the decayed prior term."""
+    n, p, M = est.n_params, est.n_outputs, est.window
+    return n * p + n * n + n + 3 + M * (n + p + 2)
+
+
+class SlidingWindowRLS(ForgettingMixin, RecursiveEstimator):
     r"""Sliding-window least squares: the truncated least squares method (TLSM).
 
     After sample k the estimate minimises the RLS cost restricted to the
@@ -63,8 +72,15 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
        the truncated least squares method (TLSM)", 1991, eqs. 62–74.
     """
 
-    _kind = "SlidingWindowRLS"
-    _method = "window"  # its name for adaptid.estimator
+    spec = AlgorithmSpec(
+        method="window",
+        kernels={"default": "WINDOW", "diffuse": "WINDOW_DIFFUSE"},
+        options=("window", "forgetting", "nan_policy", "windup_threshold"),
+        diffuse_tail=lambda n, p: 2,  # [flag, stop]
+        buffer=_buffer,
+        rebuilds=True,
+        stats=("default", "diffuse"),
+        stats_from_buffer=True)
 
     def __init__(self, n_params, window, *, forgetting=1.0, theta0=None, P0=1e4,
                  nan_policy="raise", n_outputs=None, windup_threshold=None):
@@ -74,14 +90,6 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
             forgetting, allow_strategies=False, owner="SlidingWindowRLS")
         super().__init__(n_params, theta0=theta0, P0=P0, nan_policy=nan_policy,
                          n_outputs=n_outputs, windup_threshold=windup_threshold)
-
-    def _options(self):
-        return {"window": self.window, "forgetting": self._forgetting_option(),
-                "nan_policy": self.nan_policy, "windup_threshold": self.windup_threshold}
-
-    def _state_length(self):
-        n, p, M = self.n_params, self.n_outputs, self.window
-        return (n * p + n * n + n) * 2 + 3 + M * (n + p + 2) + self._diffuse_tail()
 
     def _fill_initial(self, S):
         super()._fill_initial(S)
@@ -104,17 +112,6 @@ class SlidingWindowRLS(_ForgettingMixin, RecursiveEstimator):
             raise param_error("state['state']", f"a window state (0 <= pos < {M}, "
                               f"0 <= count <= {M}, log-forgetting <= 0, weights >= 0)",
                               "<a damaged window state>")
-
-    # what the engine needs to know
-    _code_is_rebuilds = True
-    _supports_stats = True
-    _stats_from_buffer = True
-
-    def _entries(self):
-        return _kernels.WINDOW_DIFFUSE if self._diffuse else _kernels.WINDOW
-
-    def _diffuse_tail(self):
-        return 2 if self._diffuse else 0  # [flag, stop]
 
     def _kernel_options(self):
         opt = [self._windup_threshold, self.window, _config.DOWNDATE_RTOL]

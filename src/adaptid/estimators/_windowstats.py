@@ -192,7 +192,7 @@ def check_stats(est, stats, has_constant) -> bool:
         raise param_error("has_constant", "None, True or False", has_constant)
     if has_constant is not None and not stats:
         raise param_error("has_constant", "None unless stats=True", has_constant)
-    if stats and not est._supports_stats:
+    if stats and est._variant not in est.spec.stats:
         raise param_error("stats", f"False for {type(est).__name__} with these options "
                           "(windowed statistics: SlidingWindowRLS, and RLS with constant or "
                           "per-sample exponential forgetting and no P_max)", stats)
@@ -206,7 +206,7 @@ def stats_rows(est, shape_N, want):
     if not want:
         return None  # the kernels' statistics hooks then compile to nothing
     St = np.zeros(lead + (shape_N[-1] + 1, width(est.n_params, est.n_outputs)))
-    if est._stats_from_buffer or est.n_updates == 0:
+    if est.spec.stats_from_buffer or est.n_updates == 0:
         return St  # the window's kernel sums its buffer; RLS from the prior: all zero
     acc = getattr(est, "_stats_acc", None)
     if acc is None or est._stats_mark != (est.n_updates, est._batch):

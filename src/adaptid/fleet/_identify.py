@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 
 from .._validation import check_choice, check_int, check_scalar, param_error
-from ..estimators import METHODS
+from ..estimators._factory import METHODS
 from ._changes import _CHANGE_TESTS, _MULTIPLE, _PVALUE_TESTS, _bde_a, _fleet_verdict
 from ._graph import (_close_client, _compute, _model_names, _open_client, _partitioned,
                      _result_meta)
