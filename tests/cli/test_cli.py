@@ -312,7 +312,7 @@ def test_method_option_rules_are_the_factory_table():
     # does not take it, and "needs" exactly for the options the factory requires.
     from adaptid.cli._engine import OPTIONS, MethodSpec
     from adaptid.cli._errors import CLIError
-    from adaptid.estimators import METHODS, method_options
+    from adaptid.estimators._factory import METHODS, method_options
     from adaptid.estimators._factory import required_options
 
     value = {"window": 50, "forgetting": 0.99, "process_cov": 1e-4, "noise_var": 0.1,

@@ -27,7 +27,7 @@ prior, nonzero θ₀), each with one and with two outputs — and for
 The expected values are the contract's own equivalences (update against run,
 stop-and-resume against one pass), never numbers computed the same way. The
 case list is generated from the factory's table (:data:`adaptid.METHODS`,
-:func:`adaptid.estimators.method_options`): a method or an option the table
+:func:`adaptid.estimators._factory.method_options`): a method or an option the table
 knows but this file has no value for fails
 :func:`test_every_method_and_option_of_the_factory_has_cases`.
 """
@@ -41,7 +41,7 @@ import pytest
 
 import adaptid
 from adaptid import forgetting as fg
-from adaptid.estimators import METHODS, method_of, method_options
+from adaptid.estimators._factory import METHODS, method_of, method_options
 
 N_SAMPLES, N_PARAMS, N_STREAMS = 48, 3, 3
 HALF = 21  # where a run stops and resumes (not a multiple of the window)

@@ -32,7 +32,7 @@ METHODS = _RECURSIVE + ("batch",)
 
 #: The estimator options of the command line: flag -> (the factory's keyword, what
 #: "--method M needs FLAG ..." says of it). Which method takes or needs an option
-#: is read from the factory's table (:func:`adaptid.estimators.method_options`,
+#: is read from the factory's table (:func:`adaptid.estimators._factory.method_options`,
 #: ``required_options``), never restated here; ``batch`` takes none of them.
 OPTIONS = {
     "--window": ("window", "M (the number of samples in the window)"),
