@@ -105,12 +105,18 @@ class LSResult:
 
     @property
     def resid(self):
-        r"""Residuals :math:`y - \Phi\hat\theta` (statsmodels' name); a Series for a DataFrame ``Phi``."""
+        r"""Residuals :math:`y - \Phi\hat\theta` (statsmodels' name).
+
+        A Series on the rows of a DataFrame ``Phi``, else :attr:`residuals`.
+        """
         return self._by_row(self.residuals)
 
     @property
     def fittedvalues(self):
-        r""":math:`\Phi\hat\theta` at the data (statsmodels' name); a Series for a DataFrame ``Phi``."""
+        r""":math:`\Phi\hat\theta` at the data (statsmodels' name).
+
+        A Series on the rows of a DataFrame ``Phi``, else an array like ``y``.
+        """
         self._need_data("fittedvalues")
         with np.errstate(over="ignore", invalid="ignore"):
             fitted = (self._y[:, 0] if self._single else self._y) - self.residuals
@@ -154,7 +160,10 @@ class LSResult:
 
     @property
     def pvalues(self):
-        """Two-sided p-values of the t statistics, Student's t with N − n dof; a Series for a DataFrame ``Phi``."""
+        """Two-sided p-values of the t statistics, Student's t with N − n dof.
+
+        Shape like ``theta``; a Series for a DataFrame ``Phi``.
+        """
         return self._by_param(self._pvalues)
 
     @cached_property
@@ -317,7 +326,7 @@ class LSResult:
         if self._columns is not None and self._single:
             import pandas as pd
 
-            return pd.DataFrame(out, index=self._columns, columns=[0, 1])
+            return pd.DataFrame(out, index=self._columns)       # columns 0, 1: a RangeIndex
         return out
 
     def __repr__(self):
