@@ -156,3 +156,22 @@ def test_dryer_unchanged():
     again = IDData(frame["y"], frame["u"])          # its own time axis gives the same dt
     assert again.dt == pytest.approx(0.08, rel=1e-12)
     np.testing.assert_array_equal(again.y, d.y)
+
+
+@pytest.mark.parametrize("cls, orders", [("AR", (2,)), ("ARMA", (2, 1))])
+def test_time_series_models_carry_the_dt(cls, orders, rng):
+    control = pytest.importorskip("control")
+    from adaptid import models
+
+    idx = pd.date_range("2026-01-01", periods=300, freq="80ms")
+    level = _record(idx, rng)["temp"]
+    ref = getattr(models, cls)(*orders).fit(level.to_numpy())
+    assert ref.dt == 1.0                                   # arrays: no time at all
+    for data in (level, IDData(level)):
+        m = getattr(models, cls)(*orders).fit(data)
+        assert m.dt == 0.08 and m.to_control().dt == 0.08 and m.y_name == "temp"
+        np.testing.assert_array_equal(m.theta, ref.theta)   # the same fit
+    traj = getattr(models, cls)(*orders).fit_recursive(level)
+    assert traj.time is not None and traj.time.dtype.kind == "M"
+    with pytest.raises(ValueError, match="y must be an output record without inputs"):
+        getattr(models, cls)(*orders).fit(IDData(level, level))
