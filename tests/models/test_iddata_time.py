@@ -96,21 +96,37 @@ def test_irregular_axis_without_dt_names_dt_and_the_axis(rng):
         IDData(y)
     with pytest.raises(ValueError, match=r"dt must be given .*irregular.*\btime\b"):
         IDData(np.ones(4), time=[0.0, 1.0, 2.0, 4.0])
-    # with dt given, the irregular axis contradicts it
-    with pytest.raises(ValueError, match=r"dt=0\.08 s contradicts the time axis \(index of y\)"):
-        IDData(y, dt=0.08)
+    # dt given as the nominal step of the irregular axis: taken, the stamps kept
+    d = IDData(y, dt=0.08)
+    assert d.dt == 0.08
+    np.testing.assert_array_equal(d.time, idx.to_numpy())
+    # a dt off the axis' median step contradicts it
+    with pytest.raises(ValueError, match=r"dt=0\.1 s contradicts the time axis \(index of y\), "
+                                         r"an irregular axis whose median step is 0\.08 s"):
+        IDData(y, dt=0.1)
+
+
+def test_jittered_stamps_with_their_nominal_dt(rng):
+    # stamps of a 10 ms logger with up to 0.5 ms of jitter (what the CLI reads from a CSV)
+    t = 0.01 * np.arange(200) + rng.uniform(-5e-4, 5e-4, 200)
+    with pytest.raises(ValueError, match="dt must be given for an irregular time axis"):
+        IDData(np.ones(200), time=t)
+    assert IDData(np.ones(200), time=t, dt=0.01).dt == 0.01
+    assert IDData(np.ones(200), time=t, dt=float(np.median(np.diff(t)))).dt > 0
 
 
 def test_contradicting_dt_names_both(rng):
     idx = pd.date_range("2026-01-01", periods=50, freq="80ms")
     df = _record(idx, rng)
     with pytest.raises(ValueError, match=r"dt=0\.1 s contradicts the time axis \(index of y\)"
-                                         r", whose steps are 0\.08 s"):
+                                         r", whose step is 0\.08 s"):
         IDData(df["temp"], df["power"], 0.1)
     with pytest.raises(ValueError, match=r"dt=1 s contradicts time"):
         IDData(np.ones(5), time=np.arange(5) * 0.5, dt=1.0)
-    # the same dt to a part in 1e9 is no contradiction
-    assert IDData(df["temp"], dt=0.08 * (1 + 1e-12)).dt == pytest.approx(0.08, rel=1e-11)
+    # the same dt to a part in 1e9 is no contradiction; a part in 1e4 over 50 samples is
+    assert IDData(df["temp"], dt=0.08 * (1 + 1e-9)).dt == pytest.approx(0.08, rel=1e-8)
+    with pytest.raises(ValueError, match=r"dt=0\.080008 s contradicts the time axis"):
+        IDData(df["temp"], dt=0.08 * (1 + 1e-4))
 
 
 def test_decreasing_time_is_refused():

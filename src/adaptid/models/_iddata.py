@@ -57,6 +57,9 @@ def _elapsed_seconds(time):
 #: step of the grid t0 + k·dt (the EMPS stamps, rounded in their file, stray
 #: by 3.2e-5 of a step; a missing or doubled sample strays by a whole step).
 _GRID_RTOL = 1e-4
+#: A dt given for an irregular axis (gaps, jitter) is its nominal step: it
+#: contradicts the axis when it is off the median step by more than this.
+_NOMINAL_RTOL = 1e-2
 
 
 def _where(source):
@@ -77,21 +80,32 @@ def _sample_time(dt, time, source, freq):
         k = int(np.argmax(~(steps > 0))) + 1
         raise param_error("time" if source == "time" else f"the time axis (index of {source})",
                           "strictly increasing", f"<a step <= 0 at sample {k}>")
-    step = freq if freq is not None else float(el[-1]) / (len(el) - 1)
-    ref = step if dt is None else dt
-    # every stamp on the grid t0 + k·dt, to _GRID_RTOL of a step plus the rounding of the stamps
     span = 0.0 if time.dtype.kind in "Mm" else float(np.abs(time.astype(np.float64)).max())
-    tol = _GRID_RTOL * ref + 8 * np.finfo(float).eps * span
-    if float(np.max(np.abs(el - ref * np.arange(len(el))))) > tol:
-        lo, hi = float(steps.min()), float(steps.max())
-        found = (f"{lo:.9g} s" if hi - lo <= tol else f"from {lo:.9g} to {hi:.9g} s") \
-            + f" ({len(el) - 1} steps over {float(el[-1]):.9g} s)"
+    k = np.arange(len(el))
+
+    def off_grid(h):       # stamps off t0 + k·h by more than _GRID_RTOL of a step (+ rounding)
+        return float(np.max(np.abs(el - h * k))) > _GRID_RTOL * h + 8 * np.finfo(float).eps * span
+
+    step = freq if freq is not None else float(el[-1]) / (len(el) - 1)
+    lo, hi = float(steps.min()), float(steps.max())
+    if not off_grid(step):                          # a regular axis: dt must be its step
         if dt is None:
-            raise ValueError(f"dt must be given for an irregular time axis: {_where(source)} "
-                             f"has steps {found}; pass dt (the sample time) or resample")
-        raise ValueError(f"dt={dt:.9g} s contradicts {_where(source)}, whose steps are "
-                         f"{found}; give the time axis' step as dt or leave dt out")
-    return ref
+            return step
+        if off_grid(dt):
+            raise ValueError(f"dt={dt:.9g} s contradicts {_where(source)}, whose step is "
+                             f"{step:.9g} s ({len(el) - 1} steps over {float(el[-1]):.9g} s); "
+                             "give that step as dt or leave dt out")
+        return dt
+    median = float(np.median(steps))
+    if dt is None:
+        raise ValueError(f"dt must be given for an irregular time axis: {_where(source)} has "
+                         f"steps from {lo:.9g} to {hi:.9g} s (median {median:.9g} s); pass "
+                         "the nominal sample time as dt (the stamps are kept) or resample")
+    if abs(dt - median) > _NOMINAL_RTOL * dt:
+        raise ValueError(f"dt={dt:.9g} s contradicts {_where(source)}, an irregular axis whose "
+                         f"median step is {median:.9g} s (steps from {lo:.9g} to {hi:.9g} s); "
+                         "give its nominal step as dt")
+    return dt
 
 
 def _default_names(prefix, count, given, what):
@@ -130,8 +144,8 @@ class IDData:
     ------
     ValueError
         If the time axis is irregular and ``dt`` is not given, if ``dt``
-        contradicts the time axis, or if the time axis does not increase.
-        The message names ``dt`` and the time axis.
+        contradicts the time axis (see Notes), or if the time axis does not
+        increase. The message names ``dt`` and the time axis.
 
     Attributes
     ----------
@@ -166,16 +180,20 @@ class IDData:
        as seconds);
     3. 1.0, when there is no time axis at all (as MATLAB's ``iddata``).
 
-    A time axis must be regular: every stamp must lie on the grid
-    :math:`t_0 + k\,dt` to within 1e-4 of a step (plus the rounding of float
-    stamps, 8 ε·max|t|); over N samples this pins ``dt`` to a relative
-    1e-4/(N − 1), and it tolerates stamps rounded in a file, as EMPS's are.
-    Otherwise, without ``dt`` the axis cannot give a sample time, and with
-    ``dt`` the two contradict each other; both are a ``ValueError`` naming
-    ``dt`` and the time axis. Resample an irregular record first (e.g.
-    ``df.resample("80ms").mean().interpolate()``). Time-zone aware stamps are
-    kept in UTC. Models fitted from an ``IDData`` (or from pandas inputs,
-    which become one) take its ``dt``, and so does their ``to_control()``.
+    A time axis is regular when every stamp lies on the grid
+    :math:`t_0 + k\,h` to within 1e-4 of a step (plus the rounding of float
+    stamps, 8 ε·max|t|), h its step; this tolerates stamps rounded in a file,
+    as EMPS's are. A ``dt`` given with a regular axis must put the stamps on
+    its own grid to the same tolerance, which pins it to the step to a
+    relative 1e-4/(N − 1). An irregular axis (gaps, jitter) cannot give a
+    sample time: ``dt`` must then be given, as the nominal step, and is
+    taken if it is within 1 % of the median step (the stamps are kept in
+    :attr:`time`). Otherwise ``dt`` contradicts the axis. Both errors are a
+    ``ValueError`` naming ``dt`` and the time axis; resample an irregular
+    record to make it regular (``df.resample("80ms").mean().interpolate()``).
+    Time-zone aware stamps are kept in UTC. Models fitted from an ``IDData``
+    (or from pandas inputs, which become one) take its ``dt``, and so does
+    their ``to_control()``.
 
     Examples
     --------
