@@ -100,7 +100,8 @@ def _sample_time(dt, time, source, freq):
     if dt is None:
         raise ValueError(f"dt must be given for an irregular time axis: {_where(source)} has "
                          f"steps from {lo:.9g} to {hi:.9g} s (median {median:.9g} s); pass "
-                         "the nominal sample time as dt (the stamps are kept) or resample")
+                         "the nominal sample time as dt, e.g. IDData(y, u, dt) (the stamps are "
+                         "kept), or resample")
     if abs(dt - median) > _NOMINAL_RTOL * dt:
         raise ValueError(f"dt={dt:.9g} s contradicts {_where(source)}, an irregular axis whose "
                          f"median step is {median:.9g} s (steps from {lo:.9g} to {hi:.9g} s); "
