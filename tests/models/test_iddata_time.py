@@ -191,3 +191,15 @@ def test_time_series_models_carry_the_dt(cls, orders, rng):
     assert traj.time is not None and traj.time.dtype.kind == "M"
     with pytest.raises(ValueError, match="y must be an output record without inputs"):
         getattr(models, cls)(*orders).fit(IDData(level, level))
+
+
+def test_a_range_index_numbers_rows_and_gives_no_sample_time(rng):
+    df = _record(pd.RangeIndex(400), rng).iloc[100:]       # a slice of the default index
+    d = IDData(df["temp"], df["power"], 0.08)               # no contradiction with rows 100..399
+    assert d.dt == 0.08
+    np.testing.assert_array_equal(d.time, np.arange(100, 400))
+    assert IDData(df["temp"]).dt == 1.0
+    # an unnamed slice fitted with the model's own dt keeps it
+    m = ARX(2, 1, 1, dt=0.5).fit(pd.Series(df["temp"].to_numpy(), index=df.index),
+                                 pd.Series(df["power"].to_numpy(), index=df.index))
+    assert m.dt == 0.5

@@ -25,13 +25,17 @@ def _index_of(obj):
     Returns ``(values, freq_seconds)``: the stamps as an ndarray (``datetime64``
     for a ``DatetimeIndex``, in UTC if it has a time zone; ``timedelta64`` for a
     ``TimedeltaIndex``; numbers otherwise) and the step of the index's own
-    fixed frequency in seconds (None without one).
+    fixed frequency in seconds (None without one; ``"rows"`` for a
+    ``RangeIndex``, which numbers rows, as a sliced default index does, and
+    gives no sample time).
     """
     idx = getattr(obj, "index", None)
     if idx is None or not hasattr(obj, "to_numpy"):
         return None, None
-    if type(idx).__name__ == "RangeIndex" and idx.start == 0 and idx.step == 1:
-        return None, None
+    if type(idx).__name__ == "RangeIndex":
+        if idx.start == 0 and idx.step == 1:
+            return None, None
+        return idx.to_numpy(), "rows"
     if getattr(idx, "tz", None) is not None:      # aware stamps: compare them in UTC
         idx = idx.tz_convert("UTC").tz_localize(None)
     freq = None
@@ -43,6 +47,12 @@ def _index_of(obj):
         except (ValueError, TypeError):           # calendar steps (months, business days)
             freq = None
     return idx.to_numpy(), freq
+
+
+def _has_time(obj):
+    """Whether a pandas object's index is a time axis (not the rows' numbers)."""
+    values, freq = _index_of(obj)
+    return values is not None and freq != "rows"
 
 
 def _elapsed_seconds(time):
@@ -174,7 +184,8 @@ class IDData:
 
     1. ``dt`` as given;
     2. the time axis, which is ``time`` if given, else the index of a pandas
-       ``y`` (or ``u``) unless it is the default ``RangeIndex`` 0..N−1: the
+       ``y`` (or ``u``) unless it is a ``RangeIndex`` (row numbers, such as
+       the default 0..N−1 or a slice of it, give no sample time): the
        index's own fixed frequency (``pd.to_timedelta(index.freq)``) for a
        ``DatetimeIndex`` or ``TimedeltaIndex`` that has one, else the mean
        step :math:`(t_{N-1} - t_0)/(N - 1)` in seconds (numbers are taken
@@ -248,7 +259,8 @@ class IDData:
                                   f"<dtype {time.dtype}>", exc=TypeError)
             if time.dtype.kind == "f" and not np.all(np.isfinite(time)):
                 raise param_error("time", "finite", "<NaN or infinite stamps>")
-        self.dt = _sample_time(dt, time, source, freq)
+        rows = freq == "rows"      # a RangeIndex: kept as the stamps, but no sample time
+        self.dt = _sample_time(dt, None if rows else time, source, None if rows else freq)
         self.time = time
         self._k0 = 0
         self.outputs = np.ascontiguousarray(Y)
@@ -452,7 +464,7 @@ def as_signals(y, u, *, where="y"):
     y_arr = getattr(y, "to_numpy", lambda: y)()
     u_arr = None if u is None else getattr(u, "to_numpy", lambda: u)()
     named = _names_of(y) is not None or (u is not None and _names_of(u) is not None)
-    timed = _index_of(y)[0] is not None or (u is not None and _index_of(u)[0] is not None)
+    timed = _has_time(y) or (u is not None and _has_time(u))
     if named or timed:      # pandas: its names and the dt of its index go into the model
         return y_arr, u_arr, IDData(y, u)
     return y_arr, u_arr, None
