@@ -25,15 +25,26 @@ class LSResult:
     Attributes
     ----------
     theta : ndarray, shape (n,) or (n, p)
-        The estimate.
+        The estimate (an ndarray whatever the inputs were).
     residuals : ndarray, shape (N,) or (N, p)
-        :math:`y - \Phi\hat\theta` (unweighted).
+        :math:`y - \Phi\hat\theta` (unweighted; an ndarray whatever the
+        inputs were).
     sigma2 : float or ndarray, shape (p,)
         :math:`\hat\sigma^2 = \sum_k w_k r_k^2 / (N - n)`.
     dof : int
         Residual degrees of freedom N − n.
     rank : int
         Numerical rank of the (weighted, augmented) design.
+
+    Notes
+    -----
+    When ``Phi`` was a pandas DataFrame, the statsmodels-named statistics
+    come labelled, as statsmodels' OLS / WLS results do: :attr:`params`,
+    :attr:`stderr` (:attr:`bse`), :attr:`tvalues` and :attr:`pvalues` are
+    Series indexed by the columns of ``Phi`` (DataFrames with one column per
+    output for several outputs), :meth:`conf_int` is a DataFrame with columns
+    0 and 1, and :attr:`resid` and :attr:`fittedvalues` are Series indexed
+    by the rows of ``Phi``. With arrays they are arrays, as before.
     """
 
     theta: np.ndarray
@@ -47,6 +58,30 @@ class LSResult:
     _weights: np.ndarray | None = field(repr=False, default=None)    # (N,) or None
     _k_constant: int = field(repr=False, default=0)
     names: tuple | None = field(repr=False, default=None)
+    _columns: object = field(repr=False, default=None)   # pandas Index of Phi's columns
+    _rows: object = field(repr=False, default=None)      # pandas Index of Phi's rows
+    _outputs: object = field(repr=False, default=None)   # y's columns (several outputs)
+
+    # ------------------------------------------------- pandas in, pandas out
+    def _by_param(self, arr):
+        """``arr`` (n,) or (n, p) as a Series / DataFrame by Phi's columns when Phi was one."""
+        if self._columns is None:
+            return arr
+        import pandas as pd
+
+        if np.ndim(arr) == 1:
+            return pd.Series(arr, index=self._columns)
+        return pd.DataFrame(arr, index=self._columns, columns=self._outputs)
+
+    def _by_row(self, arr):
+        """``arr`` (N,) or (N, p) as a Series / DataFrame by Phi's rows when Phi was a DataFrame."""
+        if self._columns is None:
+            return arr
+        import pandas as pd
+
+        if np.ndim(arr) == 1:
+            return pd.Series(arr, index=self._rows)
+        return pd.DataFrame(arr, index=self._rows, columns=self._outputs)
 
     # ---------------------------------------------------- statsmodels' names
     def _need_data(self, what):
@@ -59,14 +94,33 @@ class LSResult:
         return int(self.residuals.shape[0])
 
     @property
-    def params(self) -> np.ndarray:
-        """The estimate (statsmodels' name for :attr:`theta`)."""
-        return self.theta
+    def params(self):
+        """The estimate (statsmodels' name for :attr:`theta`); a Series for a DataFrame ``Phi``."""
+        return self._by_param(self.theta)
 
     @property
-    def bse(self) -> np.ndarray:
+    def bse(self):
         """Standard errors (statsmodels' name for :attr:`stderr`)."""
         return self.stderr
+
+    @property
+    def resid(self):
+        r"""Residuals :math:`y - \Phi\hat\theta` (statsmodels' name).
+
+        A Series on the rows of a DataFrame ``Phi``, else :attr:`residuals`.
+        """
+        return self._by_row(self.residuals)
+
+    @property
+    def fittedvalues(self):
+        r""":math:`\Phi\hat\theta` at the data (statsmodels' name).
+
+        A Series on the rows of a DataFrame ``Phi``, else an array like ``y``.
+        """
+        self._need_data("fittedvalues")
+        with np.errstate(over="ignore", invalid="ignore"):
+            fitted = (self._y[:, 0] if self._single else self._y) - self.residuals
+        return self._by_row(fitted)
 
     @property
     def df_resid(self) -> int:
@@ -89,17 +143,28 @@ class LSResult:
         return float(out) if self._single else out
 
     @cached_property
-    def tvalues(self) -> np.ndarray:
-        """t statistics θ̂/se, shape like ``theta``."""
+    def _tvalues(self) -> np.ndarray:
         with np.errstate(divide="ignore", invalid="ignore"):
-            return np.asarray(self.theta) / self.stderr
+            return np.asarray(self.theta) / self._stderr
+
+    @property
+    def tvalues(self):
+        """t statistics θ̂/se, shape like ``theta``; a Series for a DataFrame ``Phi``."""
+        return self._by_param(self._tvalues)
 
     @cached_property
-    def pvalues(self) -> np.ndarray:
-        """Two-sided p-values of the t statistics, Student's t with N − n dof."""
+    def _pvalues(self) -> np.ndarray:
         if self.dof <= 0:
             return np.full(np.shape(self.theta), np.nan)
-        return 2.0 * stats.t.sf(np.abs(self.tvalues), self.dof)
+        return 2.0 * stats.t.sf(np.abs(self._tvalues), self.dof)
+
+    @property
+    def pvalues(self):
+        """Two-sided p-values of the t statistics, Student's t with N − n dof.
+
+        Shape like ``theta``; a Series for a DataFrame ``Phi``.
+        """
+        return self._by_param(self._pvalues)
 
     @cached_property
     def _tss(self):
@@ -194,7 +259,7 @@ class LSResult:
                        "log-likelihood": self.llf, "AIC": self.aic, "BIC": self.bic})
         kind = "Least squares" if self._weights is None else "Weighted least squares"
         return Summary(title=f"{kind} (QR)", names=names,
-                       params=parameter_rows(self.theta, self.stderr, self.dof, alpha),
+                       params=parameter_rows(self.theta, self._stderr, self.dof, alpha),
                        stats=st, alpha=alpha)
 
     @cached_property
@@ -221,12 +286,16 @@ class LSResult:
             Rs = s[:, None, None] * Ri[None]
             return Rs @ np.swapaxes(Rs, -1, -2)
 
-    @cached_property
-    def stderr(self) -> np.ndarray:
-        """Standard errors √diag(cov): shape (n,) or (n, p).
+    @property
+    def stderr(self):
+        """Standard errors √diag(cov): shape (n,) or (n, p); a Series for a DataFrame ``Phi``.
 
         An entry that overflows float64 is inf, with a :class:`~adaptid.PrecisionWarning`.
         """
+        return self._by_param(self._stderr)
+
+    @cached_property
+    def _stderr(self) -> np.ndarray:
         d = np.hypot.reduce(self._Rinv, axis=1)  # row norms of R⁻¹ without overflow
         s = np.sqrt(np.asarray(self.sigma2))
         with np.errstate(over="ignore", invalid="ignore"):
@@ -237,20 +306,28 @@ class LSResult:
                           "rescale the columns of Phi or y", PrecisionWarning, stacklevel=2)
         return out
 
-    def conf_int(self, alpha=0.05) -> np.ndarray:
+    def conf_int(self, alpha=0.05):
         r"""Two-sided (1 − α) confidence intervals from Student's t with N − n dof.
 
         Returns
         -------
-        ndarray, shape (n, 2) or (n, p, 2)
-            Lower and upper bounds.
+        ndarray, shape (n, 2) or (n, p, 2); or DataFrame, shape (n, 2)
+            Lower and upper bounds. For a DataFrame ``Phi`` and one output, a
+            DataFrame indexed by its columns with columns 0 (lower) and 1
+            (upper), as statsmodels' ``conf_int()``; several outputs keep the
+            (n, p, 2) array.
         """
         alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
         if self.dof <= 0:
             raise ValueError("conf_int needs N > n (no residual degrees of freedom)")
         q = stats.t.ppf(1 - alpha / 2, self.dof)
-        half = q * self.stderr
-        return np.stack([self.theta - half, self.theta + half], axis=-1)
+        half = q * self._stderr
+        out = np.stack([self.theta - half, self.theta + half], axis=-1)
+        if self._columns is not None and self._single:
+            import pandas as pd
+
+            return pd.DataFrame(out, index=self._columns)       # columns 0, 1: a RangeIndex
+        return out
 
     def __repr__(self):
         return f"LSResult(theta={np.array2string(np.asarray(self.theta), precision=6)}, dof={self.dof})"
@@ -275,10 +352,14 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
 
     Parameters
     ----------
-    Phi : array_like, shape (N, n)
-        Regressors, finite.
-    y : array_like, shape (N,) or (N, p)
-        Outputs, finite; p outputs share Φ.
+    Phi : array_like, shape (N, n); or pandas DataFrame
+        Regressors, finite: one row per sample of ``y``. A DataFrame labels
+        the results by its columns and rows, as statsmodels does (see
+        :class:`LSResult`).
+    y : array_like, shape (N,), (N, 1) or (N, p); or pandas Series / DataFrame
+        Outputs, finite; p outputs share Φ. One output as a column (N, 1)
+        is squeezed to (N,): the results are those of a single output (as
+        :class:`~adaptid.IDData` and statsmodels treat it).
     weights : array_like, shape (N,), optional
         wₖ ≥ 0 (default 1).
     ridge : float
@@ -291,9 +372,10 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     Raises
     ------
     ValueError
-        On wrong shapes, non-finite data, negative weights or ridge, or a
-        rank-deficient design with ``ridge == 0`` (the parameters are then
-        not identifiable: add ``ridge`` or remove columns).
+        On wrong shapes (a ``Phi`` of shape (n, N), transposed, is named
+        with the fix ``Phi.T``), non-finite data, negative weights or ridge,
+        or a rank-deficient design with ``ridge == 0`` (the parameters are
+        then not identifiable: add ``ridge`` or remove columns).
 
     Examples
     --------
@@ -302,19 +384,38 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     >>> res = adaptid.lstsq(Phi, 1.0 + 2.0 * np.arange(5.0))
     >>> np.allclose(res.theta, [1.0, 2.0])
     True
+
+    A DataFrame of regressors gives results labelled by its columns:
+
+    >>> import pandas as pd
+    >>> X = pd.DataFrame(Phi, columns=["const", "slope"])
+    >>> adaptid.lstsq(X, 1.0 + 2.0 * np.arange(5.0)).params.round(12).to_dict()
+    {'const': 1.0, 'slope': 2.0}
     """
+    frame = hasattr(Phi, "columns") and hasattr(Phi, "index")
+    labels = {}
+    if frame:
+        labels = dict(_columns=Phi.columns, _rows=Phi.index)
     names = tuple(str(c) for c in Phi.columns) if hasattr(Phi, "columns") else None
+    y_cols = getattr(y, "columns", None)
     Phi = as_float_array(Phi, "Phi", ndim=2)
     N, n = Phi.shape
+    Y = as_float_array(y, "y", ndim=(1, 2))
+    if Y.shape[0] != N and n == Y.shape[0]:
+        raise param_error("Phi", f"of shape (N, n) with one row per sample of y (N={Y.shape[0]}); "
+                          "it looks transposed: pass Phi.T", f"<shape {Phi.shape}>")
     if n == 0:
         raise param_error("Phi", "of shape (N, n) with n >= 1", f"<shape {Phi.shape}>")
     if N == 0:
         raise param_error("Phi", "of shape (N, n) with N >= 1 rows (no samples were given)",
                           f"<shape {Phi.shape}>")
-    Y = as_float_array(y, "y", ndim=(1, 2))
     if Y.shape[0] != N:
         raise param_error("y", f"of length N={N} (rows of Phi)", f"<shape {Y.shape}>")
+    if Y.ndim == 2 and Y.shape[1] == 1:     # one output as a column: squeezed, as IDData does
+        Y = Y[:, 0]
     single = Y.ndim == 1
+    if frame and not single:
+        labels["_outputs"] = y_cols if y_cols is not None else None
     Y2 = Y.reshape(N, -1)
     ridge = check_scalar(ridge, "ridge", low=0.0)
     if weights is None:
@@ -355,7 +456,7 @@ def lstsq(Phi, y, *, weights=None, ridge=0.0) -> LSResult:
     # constant columns, as statsmodels counts them (k_constant): zero range, non-zero value
     k_const = int(np.count_nonzero((np.ptp(Phi, axis=0) == 0) & (Phi[0] != 0))) if N else 0
     k_const = min(k_const, 1)
-    extra = dict(_y=Y2, _weights=w, _k_constant=k_const, names=names)
+    extra = dict(_y=Y2, _weights=w, _k_constant=k_const, names=names, **labels)
     if single:
         return LSResult(theta=theta[:, 0], residuals=resid[:, 0], sigma2=float(sigma2[0]),
                         dof=dof, rank=rank, _R=R, _single=True, **extra)

@@ -28,6 +28,24 @@ class _TimeSeries:
         y = as_float_array(y, "y", ndim=1)
         return y, np.zeros(y.shape[0])
 
+    @staticmethod
+    def _record(y):
+        """``fit``'s arguments: an IDData or named / time-indexed pandas output keeps its
+        name and ``dt`` (with the all-zero input column); arrays as :meth:`_no_input`."""
+        from .._validation import param_error
+        from ._iddata import IDData, as_signals
+
+        data = y if isinstance(y, IDData) else as_signals(y, None)[2]
+        if data is None:
+            return _TimeSeries._no_input(y)
+        if data.n_inputs:
+            raise param_error("y", "an output record without inputs (a time-series model)",
+                              f"<an IDData with {data.n_inputs} input(s)>")
+        zero = np.zeros((len(data), 1))
+        rec = data._copy_with(inputs=zero, u_trend=zero)
+        rec.u_names = ("u",)
+        return rec, None
+
     def _data(self, y, u, *, fitting=False):
         # the internal all-zero input is no signal of the record: no input names, and
         # summary() sees an estimation record without inputs
@@ -179,13 +197,14 @@ class AR(_TimeSeries, ARX):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
+        y : array_like, shape (N,); pandas Series; or IDData without inputs
+            A pandas or IDData record gives the model its name and ``dt``.
 
         Returns
         -------
         self
         """
-        return super().fit(*self._no_input(y))
+        return super().fit(*self._record(y))
 
     def fit_recursive(self, y, estimator=None):
         r"""Recursive least squares with a core estimator (MATLAB's ``recursiveAR``).
@@ -196,7 +215,7 @@ class AR(_TimeSeries, ARX):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
+        y : array_like, shape (N,); pandas Series; or IDData without inputs
         estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
             With ``n_params = na``; default ``adaptid.RLS(na)``.
 
@@ -204,7 +223,7 @@ class AR(_TimeSeries, ARX):
         -------
         Trajectory
         """
-        return super().fit_recursive(*self._no_input(y), estimator)
+        return super().fit_recursive(*self._record(y), estimator)
 
 
 class ARMA(_TimeSeries, ARMAX):
@@ -271,7 +290,7 @@ class ARMA(_TimeSeries, ARMAX):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
+        y : array_like, shape (N,); pandas Series; or IDData without inputs
         refine : bool
             Minimise :math:`\sum\varepsilon_k^2(\theta)` from the
             Hannan–Rissanen estimate (default True).
@@ -282,7 +301,7 @@ class ARMA(_TimeSeries, ARMAX):
         -------
         self
         """
-        return super().fit(*self._no_input(y), refine=refine, arx_order=arx_order)
+        return super().fit(*self._record(y), refine=refine, arx_order=arx_order)
 
     def fit_recursive(self, y, estimator=None, *, refine=False):
         r"""Recursive extended least squares (MATLAB's ``recursiveARMA``), one compiled pass.
@@ -294,7 +313,7 @@ class ARMA(_TimeSeries, ARMAX):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
+        y : array_like, shape (N,); pandas Series; or IDData without inputs
         estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
         refine : bool
             Follow with the prediction-error refinement.
@@ -303,4 +322,4 @@ class ARMA(_TimeSeries, ARMAX):
         -------
         Trajectory
         """
-        return super().fit_recursive(*self._no_input(y), estimator, refine=refine)
+        return super().fit_recursive(*self._record(y), estimator, refine=refine)

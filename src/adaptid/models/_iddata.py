@@ -20,13 +20,103 @@ def _names_of(obj):
 
 
 def _index_of(obj):
-    """A pandas object's index as time, unless it is the default 0..N-1 range."""
+    """A pandas object's index as time, unless it is the default 0..N-1 range.
+
+    Returns ``(values, freq_seconds)``: the stamps as an ndarray (``datetime64``
+    for a ``DatetimeIndex``, in UTC if it has a time zone; ``timedelta64`` for a
+    ``TimedeltaIndex``; numbers otherwise) and the step of the index's own
+    fixed frequency in seconds (None without one; ``"rows"`` for a
+    ``RangeIndex``, which numbers rows, as a sliced default index does, and
+    gives no sample time).
+    """
     idx = getattr(obj, "index", None)
     if idx is None or not hasattr(obj, "to_numpy"):
-        return None
-    if type(idx).__name__ == "RangeIndex" and idx.start == 0 and idx.step == 1:
-        return None
-    return idx.to_numpy()
+        return None, None
+    if type(idx).__name__ == "RangeIndex":
+        if idx.start == 0 and idx.step == 1:
+            return None, None
+        return idx.to_numpy(), "rows"
+    if getattr(idx, "tz", None) is not None:      # aware stamps: compare them in UTC
+        idx = idx.tz_convert("UTC").tz_localize(None)
+    freq = None
+    if getattr(idx, "freq", None) is not None:
+        try:
+            import pandas as pd
+
+            freq = pd.to_timedelta(idx.freq).total_seconds()
+        except (ValueError, TypeError):           # calendar steps (months, business days)
+            freq = None
+    return idx.to_numpy(), freq
+
+
+def _has_time(obj):
+    """Whether a pandas object's index is a time axis (not the rows' numbers)."""
+    values, freq = _index_of(obj)
+    return values is not None and freq != "rows"
+
+
+def _elapsed_seconds(time):
+    """Seconds since the first stamp, as floats (numbers are taken as seconds)."""
+    if time.dtype.kind in "Mm":
+        return (time - time[0]).astype("timedelta64[ns]").astype(np.int64) * 1e-9
+    t = time.astype(np.float64)
+    return t - t[0]
+
+
+#: A time axis is regular when every stamp lies within this fraction of a
+#: step of the grid t0 + k·dt (the EMPS stamps, rounded in their file, stray
+#: by 3.2e-5 of a step; a missing or doubled sample strays by a whole step).
+_GRID_RTOL = 1e-4
+#: A dt given for an irregular axis (gaps, jitter) is its nominal step: it
+#: contradicts the axis when it is off the median step by more than this.
+_NOMINAL_RTOL = 1e-2
+
+
+def _where(source):
+    return "time" if source == "time" else f"the time axis (index of {source})"
+
+
+def _sample_time(dt, time, source, freq):
+    """dt from the arguments and the time axis: given, inferred, or 1.0 without time."""
+    if dt is not None:
+        dt = check_scalar(dt, "dt", low=0.0, low_open=True)
+    if time is None or len(time) < 2:
+        if dt is None and freq is not None:
+            return freq
+        return 1.0 if dt is None else dt
+    el = _elapsed_seconds(time)
+    steps = np.diff(el)
+    if not np.all(steps > 0):
+        k = int(np.argmax(~(steps > 0))) + 1
+        raise param_error("time" if source == "time" else f"the time axis (index of {source})",
+                          "strictly increasing", f"<a step <= 0 at sample {k}>")
+    span = 0.0 if time.dtype.kind in "Mm" else float(np.abs(time.astype(np.float64)).max())
+    k = np.arange(len(el))
+
+    def off_grid(h):       # stamps off t0 + k·h by more than _GRID_RTOL of a step (+ rounding)
+        return float(np.max(np.abs(el - h * k))) > _GRID_RTOL * h + 8 * np.finfo(float).eps * span
+
+    step = freq if freq is not None else float(el[-1]) / (len(el) - 1)
+    lo, hi = float(steps.min()), float(steps.max())
+    if not off_grid(step):                          # a regular axis: dt must be its step
+        if dt is None:
+            return step
+        if off_grid(dt):
+            raise ValueError(f"dt={dt:.9g} s contradicts {_where(source)}, whose step is "
+                             f"{step:.9g} s ({len(el) - 1} steps over {float(el[-1]):.9g} s); "
+                             "give that step as dt or leave dt out")
+        return dt
+    median = float(np.median(steps))
+    if dt is None:
+        raise ValueError(f"dt must be given for an irregular time axis: {_where(source)} has "
+                         f"steps from {lo:.9g} to {hi:.9g} s (median {median:.9g} s); pass "
+                         "the nominal sample time as dt, e.g. IDData(y, u, dt) (the stamps are "
+                         "kept), or resample")
+    if abs(dt - median) > _NOMINAL_RTOL * dt:
+        raise ValueError(f"dt={dt:.9g} s contradicts {_where(source)}, an irregular axis whose "
+                         f"median step is {median:.9g} s (steps from {lo:.9g} to {hi:.9g} s); "
+                         "give its nominal step as dt")
+    return dt
 
 
 def _default_names(prefix, count, given, what):
@@ -43,18 +133,30 @@ class IDData:
 
     Parameters
     ----------
-    y : array_like, shape (N,) or (N, p); or pandas Series / DataFrame
-        Outputs. A pandas object gives the names (and, unless it is the
-        default range, its index gives ``time``).
+    y : array_like, shape (N,), (N, 1) or (N, p); or pandas Series / DataFrame
+        Outputs. A pandas object gives the names and, unless it is the
+        default range 0..N−1, its index gives ``time``. One output may come
+        as a column (N, 1); :attr:`y` is then 1-D, as for shape (N,).
     u : array_like, shape (N,) or (N, m); pandas; or None
-        Inputs (None: a time series without input).
-    dt : float
-        Sample time, > 0 (default 1.0).
+        Inputs (None: a time series without input). If ``y`` has no time
+        index, a pandas ``u``'s index gives ``time``.
+    dt : float, optional
+        Sample time in seconds, > 0; may be given by position, as in
+        MATLAB's ``iddata(y, u, Ts)``. Default: the step of the time axis,
+        or 1.0 when there is no time axis at all (see Notes).
     time : array_like, shape (N,), optional
-        Time stamps (numbers or ``datetime64``); default ``dt · k``.
+        Time stamps: numbers (seconds), ``datetime64`` or ``timedelta64``;
+        default the index of pandas inputs, else ``dt · k``.
     y_names, u_names : str or sequence of str, optional
         Signal names (default ``"y"``, ``"u"`` for one signal, ``"y1"``,
         ``"y2"``, … for several).
+
+    Raises
+    ------
+    ValueError
+        If the time axis is irregular and ``dt`` is not given, if ``dt``
+        contradicts the time axis (see Notes), or if the time axis does not
+        increase. The message names ``dt`` and the time axis.
 
     Attributes
     ----------
@@ -65,8 +167,9 @@ class IDData:
     outputs, inputs : ndarray, shape (N, p), (N, m)
         Always 2-D (m may be 0).
     dt : float
+        Sample time in seconds (given, from the time axis, or 1.0).
     time : ndarray, shape (N,), or None
-        The time stamps given (None if not given).
+        The time stamps given or taken from a pandas index (None if none).
     t : ndarray, shape (N,)
         The time axis: ``time`` or ``dt · (k0 + k)``.
     y_names, u_names : tuple of str
@@ -75,24 +178,66 @@ class IDData:
         signal is ``outputs + y_trend``; :meth:`retrend` adds it back to a
         model output.
 
+    Notes
+    -----
+    The sample time comes from the first of these that exists:
+
+    1. ``dt`` as given;
+    2. the time axis, which is ``time`` if given, else the index of a pandas
+       ``y`` (or ``u``) unless it is a ``RangeIndex`` (row numbers, such as
+       the default 0..N−1 or a slice of it, give no sample time): the
+       index's own fixed frequency (``pd.to_timedelta(index.freq)``) for a
+       ``DatetimeIndex`` or ``TimedeltaIndex`` that has one, else the mean
+       step :math:`(t_{N-1} - t_0)/(N - 1)` in seconds (numbers are taken
+       as seconds);
+    3. 1.0, when there is no time axis at all (as MATLAB's ``iddata``).
+
+    A time axis is regular when every stamp lies on the grid
+    :math:`t_0 + k\,h` to within 1e-4 of a step (plus the rounding of float
+    stamps, 8 ε·max|t|), h its step; this tolerates stamps rounded in a file,
+    as EMPS's are. A ``dt`` given with a regular axis must put the stamps on
+    its own grid to the same tolerance, which pins it to the step to a
+    relative 1e-4/(N − 1). An irregular axis (gaps, jitter) cannot give a
+    sample time: ``dt`` must then be given, as the nominal step, and is
+    taken if it is within 1 % of the median step (the stamps are kept in
+    :attr:`time`). Otherwise ``dt`` contradicts the axis. Both errors are a
+    ``ValueError`` naming ``dt`` and the time axis; resample an irregular
+    record to make it regular (``df.resample("80ms").mean().interpolate()``).
+    Time-zone aware stamps are kept in UTC. Models fitted from an ``IDData``
+    (or from pandas inputs, which become one) take its ``dt``, and so does
+    their ``to_control()``.
+
     Examples
     --------
     >>> import numpy as np
     >>> from adaptid import IDData
-    >>> d = IDData(np.arange(10.0), np.ones(10), dt=0.5, y_names="temp", u_names="power")
+    >>> d = IDData(np.arange(10.0), np.ones(10), 0.5, y_names="temp", u_names="power")
     >>> est, val = d.split(0.6)
     >>> len(est), len(val), float(val.t[0])
     (6, 4, 3.0)
     >>> dd = d.detrend("linear")
     >>> bool(np.allclose(dd.y, 0.0)) and bool(np.allclose(dd.retrend(dd.y), d.y))
     True
+
+    The sample time of a pandas record comes from its index, here 80 ms:
+
+    >>> import pandas as pd
+    >>> idx = pd.date_range("2026-01-01", periods=6, freq="80ms")
+    >>> df = pd.DataFrame({"y": np.arange(6.0), "u": np.ones(6)}, index=idx)
+    >>> IDData(df["y"], df["u"]).dt
+    0.08
     """
 
-    def __init__(self, y, u=None, *, dt=1.0, time=None, y_names=None, u_names=None):
+    def __init__(self, y, u=None, dt=None, *, time=None, y_names=None, u_names=None):
         y_names = y_names if y_names is not None else _names_of(y)
         u_names = u_names if u_names is not None or u is None else _names_of(u)
+        source, freq = "time", None
         if time is None:
-            time = _index_of(y)
+            time, freq = _index_of(y)
+            source = "y"
+            if time is None and u is not None:
+                time, freq = _index_of(u)
+                source = "u"
         Y = as_float_array(getattr(y, "to_numpy", lambda: y)(), "y", ndim=(1, 2))
         Y = Y.reshape(Y.shape[0], -1)
         N = Y.shape[0]
@@ -105,14 +250,17 @@ class IDData:
                 raise param_error("u", f"with N={N} rows (as y)", f"<{U.shape[0]} rows>")
         if N < 1 or Y.shape[1] < 1:
             raise param_error("y", "at least one sample of at least one output", f"<shape {Y.shape}>")
-        self.dt = check_scalar(dt, "dt", low=0.0, low_open=True)
         if time is not None:
             time = np.asarray(time)
             if time.shape != (N,):
                 raise param_error("time", f"of shape ({N},)", f"<shape {time.shape}>")
-            if time.dtype.kind not in "iufM":
-                raise param_error("time", "numbers or datetime64 values", f"<dtype {time.dtype}>",
-                                  exc=TypeError)
+            if time.dtype.kind not in "iufMm":
+                raise param_error("time", "numbers, datetime64 or timedelta64 values",
+                                  f"<dtype {time.dtype}>", exc=TypeError)
+            if time.dtype.kind == "f" and not np.all(np.isfinite(time)):
+                raise param_error("time", "finite", "<NaN or infinite stamps>")
+        rows = freq == "rows"      # a RangeIndex: kept as the stamps, but no sample time
+        self.dt = _sample_time(dt, None if rows else time, source, None if rows else freq)
         self.time = time
         self._k0 = 0
         self.outputs = np.ascontiguousarray(Y)
@@ -302,7 +450,9 @@ def as_signals(y, u, *, where="y"):
     """(y (N,), U-like or None, IDData or None) from ``fit(data)`` or ``fit(y, u)``.
 
     An :class:`IDData` (or anything with ``outputs``/``inputs``) must come
-    alone and have one output; pandas objects become arrays.
+    alone and have one output; pandas objects become arrays, and an IDData
+    (their names, and the ``dt`` of a time index) when they are named or
+    indexed by time.
     """
     if isinstance(y, IDData):
         if u is not None:
@@ -313,6 +463,8 @@ def as_signals(y, u, *, where="y"):
         return y.y, (y.u if y.n_inputs else None), y
     y_arr = getattr(y, "to_numpy", lambda: y)()
     u_arr = None if u is None else getattr(u, "to_numpy", lambda: u)()
-    if _names_of(y) is not None or (u is not None and _names_of(u) is not None):
-        return y_arr, u_arr, IDData(y, u) if u is not None else IDData(y)
+    named = _names_of(y) is not None or (u is not None and _names_of(u) is not None)
+    timed = _has_time(y) or (u is not None and _has_time(u))
+    if named or timed:      # pandas: its names and the dt of its index go into the model
+        return y_arr, u_arr, IDData(y, u)
     return y_arr, u_arr, None
