@@ -6,7 +6,7 @@
 The covariance form sweeps P as hand-written LLVM vector code for a compile-time
 n <= ``_covsweep.VECTOR_SWEEP_MAX`` and as the scalar loops that LLVM's loop
 vectoriser handles above it; the bound is 32 on AMD Zen and 64 elsewhere
-(:mod:`adaptid._kernels._covsweep`). This script times
+(:mod:`adaptid._kernels.toolchain._covsweep`). This script times
 ``RLS(n, form="covariance").run(store=False)`` with the bound set to 64 (vector
 code) and to 32 (scalar loops) in alternating child processes, each with its
 own numba cache folder (the two builds have the same source stamp), and prints
@@ -24,7 +24,8 @@ import tempfile
 CHILD = r"""
 import sys, time, numpy as np
 vmax = int(sys.argv[1]); ns = [int(a) for a in sys.argv[2:]]
-from adaptid._kernels import _covsweep, _covariance
+from adaptid._kernels.toolchain import _covsweep
+from adaptid._kernels.recursions import _covariance
 _covsweep.VECTOR_SWEEP_MAX = vmax
 _covariance.VECTOR_SWEEP_MAX = vmax
 import adaptid

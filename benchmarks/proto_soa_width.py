@@ -5,7 +5,7 @@
         NUMBA_CPU_FEATURES="<host features>,-prefer-256-bit" python benchmarks/proto_soa_width.py zmm
 
 On Intel server CPUs LLVM's tuning prefers 256-bit vectors: the lane loops of the
-structure-of-arrays kernels (``adaptid._kernels._soa``) are vectorised mostly in ymm
+structure-of-arrays kernels (``adaptid._kernels.lanes._soa``) are vectorised mostly in ymm
 (``rls_soa_batched``: 131 zmm and 285 ymm instructions, 12 ``vdivpd ymm`` and 8
 ``vdivpd zmm``). Turning that tuning off (the second command; ``<host features>`` is
 ``llvmlite.binding.get_host_cpu_features().flatten()``) makes them zmm (635 zmm, 100

@@ -1,6 +1,6 @@
 """Where the time of the structure-of-arrays RLS kernel goes (n = 4, B = 10 000, 260 samples).
 
-Builds the block loop of ``adaptid._kernels._soa.rls_soa_batched`` (or, with
+Builds the block loop of ``adaptid._kernels.lanes._soa.rls_soa_batched`` (or, with
 ``--form covariance``, of ``cov_soa_batched``) from its own pieces four times,
 inlined into one parallel loop: complete; without the lane steps (the gather
 of Φ, y into lane-major scratch and the scatter of ε, skipped); the steps only
@@ -20,8 +20,8 @@ import time
 
 import numba
 import numpy as np
-from adaptid._kernels import _soa as S
-from adaptid._kernels._dims import dim
+from adaptid._kernels.lanes import _soa as S
+from adaptid._kernels.toolchain._dims import dim
 LANES, CHUNK = S.LANES, S.CHUNK
 _PAR = dict(parallel=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 

@@ -1,4 +1,4 @@
-"""update through its narrow step entry (adaptid._kernels._step) against run.
+"""update through its narrow step entry (adaptid._kernels.recursions._step) against run.
 
 DESIGN.md: "``run`` must give bit-for-bit the same result as calling ``update`` N
 times". With the step entry compiled (``compile_update``), ``update`` takes it;
@@ -111,7 +111,7 @@ def test_the_windup_warning_is_that_of_update_through_run(monkeypatch):
     """No excitation of the second parameter under forgetting: its pivot passes the
     threshold. The step entry warns as an update through run's entry does, at the
     same sample, and ends in run's bits."""
-    from adaptid._kernels import _step
+    from adaptid._kernels.recursions import _step
     N = 400
     Phi = np.column_stack([np.ones(N), np.zeros(N)])
     y = np.ones(N)
@@ -143,7 +143,7 @@ def test_estimators_without_a_step_entry_say_so():
 def test_the_step_entry_is_taken_only_when_it_costs_no_compilation(monkeypatch):
     """Found in this process or a cache: taken. Not found: update does not compile
     it, and goes through run's entry."""
-    from adaptid._kernels import _step
+    from adaptid._kernels.recursions import _step
     est = adaptid.RLS(5, form="ud")
     calls = []
     monkeypatch.setattr(_step, "entry_point", lambda disp, args: calls.append(disp) or None)
@@ -162,7 +162,7 @@ def test_the_step_entry_is_taken_only_when_it_costs_no_compilation(monkeypatch):
 
 def test_a_new_windup_threshold_reaches_the_step_entry(monkeypatch):
     """windup_threshold set between updates: the packed sample carries the new one."""
-    from adaptid._kernels import _step
+    from adaptid._kernels.recursions import _step
     Phi, y, _, _ = _data(4, 1, N=40, seed=5)
 
     def messages(est):

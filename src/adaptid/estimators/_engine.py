@@ -31,7 +31,7 @@ import warnings
 import numpy as np
 
 from .. import _kernels
-from .._kernels import _step
+from .._kernels.recursions import _step
 from .._exceptions import CovarianceWindupWarning, DefinitenessLossWarning
 from .._validation import (
     as_float_array,
@@ -907,7 +907,7 @@ class RecursiveEstimator:
         the scalar ones). Else None (the algorithm's own)."""
         if store or self._ptag != (0,) or not isinstance(self._ntag, tuple):
             return None
-        from .._kernels import _soa
+        from .._kernels.lanes import _soa
         if count < _soa.MIN_STREAMS:
             return None
         if self._kern is _kernels.RLS and self.n_params <= _soa.MAX_N:

@@ -165,7 +165,7 @@ def _layout(part, group, t, order_col):
     """
     import pandas as pd
 
-    from .._kernels._fleet import scan_runs
+    from .._kernels.layers._fleet import scan_runs
     gv = _group_values(part, group)
     N = gv.shape[0]
     tk = t if t is not None and t.dtype.kind in "if" else None
@@ -204,7 +204,7 @@ def _layout(part, group, t, order_col):
 
 def _gather(part, names, idx):
     """Columns ``names`` of ``part`` as C-ordered float64 rows (N, n), in row order idx."""
-    from .._kernels._fleet import gather_columns
+    from .._kernels.layers._fleet import gather_columns
     cols = [np.ascontiguousarray(_float_column(part, c, "phi")) for c in names]
     if not all(c.flags.writeable for c in cols):  # one kind of array in the tuple
         cols = [_readonly(c) for c in cols]
@@ -348,7 +348,7 @@ def _limit_threads():
 
 def _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in):
     """σ̂², residual RMS, standard errors and the CUSUM flag of every segment."""
-    from .._kernels._fleet import residual_ss_kernel
+    from .._kernels.layers._fleet import residual_ss_kernel
     G = offsets.shape[0] - 1
     n = Phi.shape[1]
     used = ~res.skipped
@@ -400,7 +400,7 @@ def _pvalue_tests(Phi, Y, used, offsets, change_test, alpha):
 
 def _bde_tests(res, Phi, Y, used, offsets, alpha_a, change_test, burn_in):
     """Brown–Durbin–Evans CUSUM crossing of every segment (compiled): (ratio, first)."""
-    from .._kernels._fleet import cusum_errors_kernel, recursive_residuals_segments
+    from .._kernels.layers._fleet import cusum_errors_kernel, recursive_residuals_segments
     G = offsets.shape[0] - 1
     n = Phi.shape[1]
     ratio = np.empty(G)
@@ -493,7 +493,7 @@ def _pandas_partitions(df, group, n_parts):
     """Split a pandas frame into ≤ n_parts row slices, each holding whole groups."""
     import pandas as pd
 
-    from .._kernels._fleet import scan_runs
+    from .._kernels.layers._fleet import scan_runs
     gv = _group_values(df, group)
     N = gv.shape[0]
     starts = np.empty(N + 1, dtype=np.int64)
