@@ -12,8 +12,7 @@
 * :mod:`._scratch`, :mod:`._lanes_ir` — stack work arrays and the lane primitives;
 * :mod:`._vecir`, :mod:`._covsweep`, :mod:`._potter_ir` — LLVM vector IR of the
   sweeps of the square-root and covariance forms;
-* :mod:`._specialise` — compile-time choices of an implementation by type;
-* :mod:`._parallel` — the one factory of the ``prange`` wrappers over streams.
+* :mod:`._specialise` — compile-time choices of an implementation by type.
 
 The recursions (``recursions/``), the lanes (``lanes/``) and the other layers'
 kernels (``layers/``) use numba's public API only (``njit``, ``prange``,
