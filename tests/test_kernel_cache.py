@@ -117,3 +117,23 @@ def test_an_edit_recompiles_only_the_edited_kernel(tmp_path):
     assert text.startswith('r"""')
     sim.write_text('r"""An edited docstring.\n\n' + text[4:], encoding="utf-8")
     assert run() == {"sim": 0, "res": 1}  # only the edited module's kernel compiles
+
+
+def test_a_parallel_wrapper_is_stamped_with_the_run_it_wraps():
+    """recursions/_parallel.py builds run_batched / run_segments for a run of another
+    module: their stamp covers that module too, so an edit of it recompiles them."""
+    from pathlib import Path
+
+    import pytest
+
+    from adaptid import _config
+    from adaptid._kernels.recursions import _lms, _parallel
+
+    if not _config.CACHE:
+        pytest.skip("no cache folder: no locator")
+    for wrapper in (_lms.lms_run_batched, _lms.nlms_run_segments):
+        loc = wrapper._cache._impl.locator
+        assert Path(loc._kernel_file) == Path(_parallel.__file__).resolve()
+        assert loc._sources == (str(Path(_lms.__file__).resolve()),)
+        assert loc.get_source_stamp()[1] not in (_cache.module_stamp(loc._kernel_file),
+                                                 _cache.module_stamp(loc._sources[0]))

@@ -52,17 +52,17 @@ repaired, k the first repaired sample; else −1 (``update``, a run of length 1 
 """
 
 import numpy as np
-from numba import prange
 
-from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ..._config import NJIT, NJIT_INLINE, njit
 from ..toolchain._covsweep import BINF, VECTOR_SWEEP_MAX, quad_n, sweep_scaled_n, theta_step, \
     vector_quad
 from ..toolchain._dims import dim
 from ..toolchain._scratch import scratch, scratch2_lines
 from ..toolchain._specialise import by_constant_n
 from ..toolchain._vecir import fma
-from ._bierman import _segment_start, _views
+from ._bierman import _views
 from ._entries import Entries
+from ._parallel import batched, segments
 from ._step import views
 
 EPS = 2.220446049250313e-16
@@ -373,23 +373,8 @@ def cov_step(S, W, ntag, ptag):
     return _cov_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, dim(ntag), dim(ptag))
 
 
-@njit(**NJIT_PARALLEL)
-def cov_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
-                    ptag):
-    """B independent streams in parallel; ``codes[b]`` as :func:`cov_run` returns."""
-    for s in prange(Phi.shape[0]):
-        codes[s] = cov_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
-                           None, opt, mat, ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def cov_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
-                     codes, ntag, ptag):
-    """G streams stored back to back, each from S0 (bit for bit :func:`cov_run`)."""
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = cov_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                           skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
+cov_run_batched = batched(cov_run, "cov_run_batched")
+cov_run_segments = segments(cov_run, "cov_run_segments")
 
 
 #: this module's entry points, by the name adaptid._kernels gives them

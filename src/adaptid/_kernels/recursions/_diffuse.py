@@ -55,14 +55,14 @@ filter), §6.4 (univariate treatment).
 """
 
 import numpy as np
-from numba import prange
 
-from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ..._config import NJIT, NJIT_INLINE, njit
 from ..toolchain._dims import dim, size_tag
-from ._bierman import _finite_row, _prior_errors, _segment_start, _store, _views
+from ._bierman import _finite_row, _prior_errors, _store, _views
 from ._entries import Entries
+from ._parallel import batched, segments
 from ._rls import _rls_core
-from ._rollstats import rows_from, srif_hook, sub, window_direct_hook, window_end_hook
+from ._rollstats import rows_from, srif_hook, window_direct_hook, window_end_hook
 from ._window import _window_core, _window_views
 
 
@@ -227,21 +227,8 @@ def rls_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, p
                                dim(ntag), dim(ptag))
 
 
-@njit(**NJIT_PARALLEL)
-def rls_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
-                            ptag):
-    for s in prange(Phi.shape[0]):
-        codes[s] = rls_diffuse_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
-                                   sub(St, s), opt, mat, ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def rls_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
-                             codes, ntag, ptag):
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = rls_diffuse_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                                   skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
+rls_diffuse_run_batched = batched(rls_diffuse_run, "rls_diffuse_run_batched", stats=True)
+rls_diffuse_run_segments = segments(rls_diffuse_run, "rls_diffuse_run_segments")
 
 
 # ------------------------------------------------------------------- window
@@ -346,21 +333,8 @@ def window_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag
                                   opt[2], opt[3], dim(ntag), dim(ptag))
 
 
-@njit(**NJIT_PARALLEL)
-def window_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
-                               ptag):
-    for s in prange(Phi.shape[0]):
-        codes[s] = window_diffuse_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
-                                      Lk[s], sub(St, s), opt, mat, ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def window_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt,
-                                mat, codes, ntag, ptag):
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = window_diffuse_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                                      skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
+window_diffuse_run_batched = batched(window_diffuse_run, "window_diffuse_run_batched", stats=True)
+window_diffuse_run_segments = segments(window_diffuse_run, "window_diffuse_run_segments")
 
 
 #: this module's entry points, by the name adaptid._kernels gives them

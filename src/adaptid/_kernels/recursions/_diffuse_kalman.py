@@ -13,15 +13,14 @@ with ``opt = [windup threshold, R₂, skip, tol]``.
 """
 
 import numpy as np
-from numba import prange
 
-from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ..._config import NJIT, NJIT_INLINE, njit
 from ..toolchain._dims import dim, size_tag
-from ._bierman import _finite_row, _prior_errors, _segment_start, _store, _udu_factor, \
-    _views
+from ._bierman import _finite_row, _prior_errors, _store, _udu_factor, _views
 from ._diffuse import _rest
 from ._entries import Entries
 from ._kalman import _kalman_core
+from ._parallel import batched, segments
 
 
 @njit(**NJIT)
@@ -131,21 +130,8 @@ def kalman_diffuse_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag
                                   dim(ptag))
 
 
-@njit(**NJIT_PARALLEL)
-def kalman_diffuse_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
-                               ptag):
-    for s in prange(Phi.shape[0]):
-        codes[s] = kalman_diffuse_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
-                                      Lk[s], None, opt, mat, ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def kalman_diffuse_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt,
-                                mat, codes, ntag, ptag):
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = kalman_diffuse_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                                      skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
+kalman_diffuse_run_batched = batched(kalman_diffuse_run, "kalman_diffuse_run_batched")
+kalman_diffuse_run_segments = segments(kalman_diffuse_run, "kalman_diffuse_run_segments")
 
 
 #: this module's entry points, by the name adaptid._kernels gives them

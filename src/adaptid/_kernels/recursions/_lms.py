@@ -31,13 +31,13 @@ non-finite value is skipped (θ untouched, error NaN, ``skipped`` set).
 """
 
 import numpy as np
-from numba import prange
 
-from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ..._config import NJIT, NJIT_INLINE, njit
 from ..toolchain._dims import dim
 from ..toolchain._scratch import scratch, small_scratch
-from ._bierman import _finite_row, _segment_start
+from ._bierman import _finite_row
 from ._entries import Entries
+from ._parallel import batched, segments
 
 
 @njit(**NJIT_INLINE)
@@ -149,23 +149,8 @@ def lms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     return _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, dim(ntag), dim(ptag), False)
 
 
-@njit(**NJIT_PARALLEL)
-def lms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
-    """B independent LMS streams in parallel; ``codes[b]`` as :func:`lms_run` returns."""
-    for s in prange(Phi.shape[0]):
-        codes[s] = lms_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
-                           None, opt, mat, ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def lms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat, codes,
-                     ntag, ptag):
-    """G LMS streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0;
-    parallel over segments, segment g bit for bit :func:`lms_run` from S0."""
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = lms_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                           skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
+lms_run_batched = batched(lms_run, "lms_run_batched")
+lms_run_segments = segments(lms_run, "lms_run_segments")
 
 
 # ---------------------------------------------------------------- NLMS
@@ -175,22 +160,8 @@ def nlms_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     return _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, dim(ntag), dim(ptag), True)
 
 
-@njit(**NJIT_PARALLEL)
-def nlms_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
-    """B independent NLMS streams in parallel."""
-    for s in prange(Phi.shape[0]):
-        codes[s] = nlms_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
-                            None, opt, mat, ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def nlms_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat, codes,
-                      ntag, ptag):
-    """G NLMS streams stored back to back, each from S0 (see :func:`lms_run_segments`)."""
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = nlms_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                            skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
+nlms_run_batched = batched(nlms_run, "nlms_run_batched")
+nlms_run_segments = segments(nlms_run, "nlms_run_segments")
 
 
 #: this module's entry points, by the name adaptid._kernels gives them

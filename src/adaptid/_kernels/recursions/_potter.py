@@ -56,15 +56,15 @@ threshold.
 """
 
 import numpy as np
-from numba import prange
 
-from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ..._config import NJIT, NJIT_INLINE, njit
 from ..toolchain._dims import dim
 from ..toolchain._potter_ir import LANES, sweep_n
 from ..toolchain._scratch import scratch, scratch2_lines
 from ..toolchain._specialise import by_constant_n
-from ._bierman import _segment_start, _views
+from ._bierman import _views
 from ._entries import Entries
+from ._parallel import batched, segments
 from ._step import views
 
 _OPTS = {"fastmath": NJIT["fastmath"]}
@@ -271,23 +271,8 @@ def potter_step(S, W, ntag, ptag):
     return _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, dim(ntag), dim(ptag))
 
 
-@njit(**NJIT_PARALLEL)
-def potter_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag,
-                       ptag):
-    """B independent streams in parallel; ``codes[b]`` as :func:`potter_run` returns."""
-    for s in prange(Phi.shape[0]):
-        codes[s] = potter_run(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s], Lk[s],
-                              None, opt, mat, ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def potter_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
-                        codes, ntag, ptag):
-    """G streams stored back to back, each from S0 (bit for bit :func:`potter_run`)."""
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = potter_run(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                              skipped[a:z], Lk[a:z], None, opt, mat, ntag, ptag)
+potter_run_batched = batched(potter_run, "potter_run_batched")
+potter_run_segments = segments(potter_run, "potter_run_segments")
 
 
 #: this module's entry points, by the name adaptid._kernels gives them

@@ -7,7 +7,9 @@ are built of inlined pieces from several files of :mod:`adaptid._kernels`
 one of those files must invalidate the kernels built from it. The locators
 below give a kernel the stamp of its own module's source, of every module of
 ``_kernels`` it imports (transitively) and of ``_config.py``
-(:func:`module_stamp`): an edit elsewhere leaves its cache valid. Every
+(:func:`module_stamp`; a parallel wrapper built by ``recursions/_parallel.py``
+also covers the module of the ``run`` it wraps): an edit elsewhere leaves its
+cache valid. Every
 kernel of every subpackage is cached in one folder (numba's folder for
 ``_kernels``, which :func:`adaptid._config.cache_decision` checks). They also
 refuse a cache folder that another user could write (numba unpickles the
@@ -126,7 +128,13 @@ class _KernelsLocator:
     """Mixin: only the functions of ``_kernels``; their stamp; one safe folder."""
 
     def get_source_stamp(self):
-        return ("adaptid-kernels", module_stamp(self._kernel_file))
+        if not self._sources:
+            return ("adaptid-kernels", module_stamp(self._kernel_file))
+        # a wrapper built for a function of another module (recursions/_parallel.py)
+        h = hashlib.sha256()
+        for path in (self._kernel_file, *self._sources):
+            h.update(module_stamp(path).encode())
+        return ("adaptid-kernels", h.hexdigest())
 
     @classmethod
     def from_function(cls, py_func, py_file):
@@ -137,6 +145,8 @@ class _KernelsLocator:
         if self is None or not _safe_folder(self.get_cache_path()):
             return None
         self._kernel_file = str(Path(py_file).resolve())
+        self._sources = tuple(str(Path(f).resolve())
+                              for f in getattr(py_func, "__adaptid_sources__", ()))
         return self
 
 
