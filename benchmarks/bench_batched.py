@@ -5,11 +5,11 @@ Same process, same data (φ ~ N(0, I), y = φᵀθ* + 0.1·noise, λ = 0.99,
 P0 = 1e3·I, θ0 = 0), B = 10 000 streams at n = 2, 4, 8:
 
 * adaptid ``RLS(n, forgetting=0.99).run_batched(Phi (B, N, n), y)`` — the
-  structure-of-arrays kernels of ``_kernels/_soa.py`` (the engine's fast path),
+  structure-of-arrays kernels of ``_kernels/lanes/_soa.py`` (the engine's fast path),
   with ``store=False`` and with the default ``store=True``;
 * the same for ``RLS(n, form="covariance")`` (n <= 7: the covariance form's
-  lane kernels, ``_kernels/_soa_cov.py``) — "cov";
-* the same call on the kernels it replaced (``_kernels/_rls.py``, one scalar
+  lane kernels, ``_kernels/lanes/_soa_cov.py``) — "cov";
+* the same call on the kernels it replaced (``_kernels/recursions/_rls.py``, one scalar
   stream per ``prange`` iteration; the engine's dispatch switched off in this
   process) — "old";
 * ``run_segments`` on the same samples as B segments of N, and on segments of
@@ -150,7 +150,7 @@ def floor_run(kernel, Phi, y):
 
 def old_path(fn):
     """Run fn with the engine's structure-of-arrays dispatch switched off."""
-    from adaptid._kernels import _soa
+    from adaptid._kernels.lanes import _soa
     keep = _soa.MIN_STREAMS
     _soa.MIN_STREAMS = 1 << 62
     try:
@@ -179,7 +179,7 @@ def cases_for(n, B, lib, rng):
         "segments random lengths": lambda: ad_segments(P2, y2, off_r),
         "segments random lengths old": lambda: old_path(lambda: ad_segments(P2, y2, off_r)),
     }
-    from adaptid._kernels._soa import COV_MAX_N
+    from adaptid._kernels.lanes._soa import COV_MAX_N
     if n <= COV_MAX_N:  # the covariance form's lane kernels
         cases.update({
             "cov batched store=False": lambda: ad_batched(Phi, y, False, "covariance"),

@@ -19,7 +19,7 @@ in the same way, for a same-run comparison.
 
 "Cold" is a fresh install: numba's cache folder is empty, and the kernels
 compiled when pip built adaptid (``adaptid/_kernels/_aot``,
-:mod:`adaptid._kernels._installed`) are used when they match, as for a user.
+:mod:`adaptid._kernels.toolchain._installed`) are used when they match, as for a user.
 ``--jit`` sets ``ADAPTID_AOT=0`` in the children: every kernel compiled from
 nothing, as without that build step. The header line says which.
 """
@@ -88,7 +88,7 @@ def main():
     if args.jit:
         AOT["ADAPTID_AOT"] = "0"
     status = json.loads(subprocess.run(
-        [sys.executable, "-c", "import json; from adaptid._kernels import _installed; "
+        [sys.executable, "-c", "import json; from adaptid._kernels.toolchain import _installed; "
          "print(json.dumps(_installed.status()))"], env=dict(os.environ, **AOT), check=True,
         capture_output=True, text=True).stdout)
     print("kernels compiled at install: " + (f"{status['kernels']}, used" if status["used"]

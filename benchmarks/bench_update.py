@@ -2,7 +2,7 @@
 
 ``update`` is a run of length 1 through the compiled ``run`` of each algorithm
 (one signature for both), or for RLS's fast forms a step through the narrow entry
-of ``adaptid._kernels._step`` when it is compiled (this script compiles it with
+of ``adaptid._kernels.recursions._step`` when it is compiled (this script compiles it with
 ``compile_update()``; the "RLS(4) via run" row forces the run entry); what is timed here is that call with its Python
 checks and, for the sliding window, the check of the pivots the window's run
 makes once per run. Best of ``--rounds`` rounds of ``--calls`` calls each;

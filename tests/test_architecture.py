@@ -197,7 +197,7 @@ def test_compiled_code_lives_only_under_kernels():
 
 
 def test_no_kernel_file_over_400_lines():
-    long = {p.name: n for p in (SRC / "_kernels").glob("*.py")
+    long = {p.name: n for p in (SRC / "_kernels").rglob("*.py")
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > 400}
     assert not long, long
 
@@ -206,7 +206,7 @@ def test_kernels_take_njit_from_config():
     """Every compiled kernel goes through adaptid._config.njit (the cache decision
     of issue 14: no cache in a folder others can write, damaged caches recompile)."""
     bad = []
-    for path in sorted((SRC / "_kernels").glob("*.py")):
+    for path in sorted((SRC / "_kernels").rglob("*.py")):
         tree = ast.parse(path.read_text(encoding="utf-8"))
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom) and (node.module or "") == "numba" and \

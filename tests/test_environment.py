@@ -138,7 +138,8 @@ def _plant(folder, marker):
     """An index for every entry point of _rls.py whose unpickling creates `marker`."""
     folder.mkdir(parents=True, exist_ok=True)
     os.chmod(folder, 0o700)
-    source = (Path(_config.__file__).parent / "_kernels" / "_rls.py").read_text().splitlines()
+    rls = Path(_config.__file__).parent / "_kernels" / "recursions" / "_rls.py"
+    source = rls.read_text().splitlines()
     for lineno, line in enumerate(source, 1):
         if line.startswith("def rls_"):
             # numba's index name: <module>.<qualname>-<first line>.py<ver>.nbi, where the
@@ -185,7 +186,7 @@ def test_read_only_install_with_unwritable_home_works(tmp_path):
         control = textwrap.dedent("""
             import numba
             from numba.core.caching import FunctionCache
-            import adaptid._kernels._rls as k
+            import adaptid._kernels.recursions._rls as k
             try:
                 FunctionCache(k.rls_run.py_func)
             except RuntimeError as err:
@@ -260,7 +261,7 @@ def test_control_plain_numba_fails_on_the_same_damage(tmp_path):
 WARM_THEN_COMPILE = textwrap.dedent("""
     import sys, numpy as np, numba
     import adaptid
-    from adaptid._kernels import _rls
+    from adaptid._kernels.recursions import _rls
     est = adaptid.RLS(3)
     est.run(np.eye(3), [1.0, 2.0, 3.0])
     print("THETA", list(est.theta))

@@ -19,12 +19,12 @@ otherwise nothing is cached or loaded from disk and one
 :class:`~adaptid.CompilationCacheWarning` says why (a read-only install with
 an unwritable HOME then works, compiling in every process). A kernel missing
 from the cache folder is loaded from the kernels compiled when adaptid was
-installed, if they match (:mod:`adaptid._kernels._installed`). A damaged cache
+installed, if they match (:mod:`adaptid._kernels.toolchain._installed`). A damaged cache
 file (truncated ``.nbc``, garbage ``.nbi``) is treated as a miss: the kernel
 is recompiled and the entry rewritten (:func:`njit`). Loading a cached kernel
 starts numba's runtime only, not its compiler's registries
-(:func:`_start_runtime`): a process whose kernels all come from the cache
-does not pay for them.
+(:mod:`adaptid._kernels.toolchain._cache`): a process whose kernels all come
+from the cache does not pay for them.
 """
 
 import os
@@ -109,11 +109,11 @@ if not CACHE:
 def njit(*args, **options):
     """``numba.njit`` with adaptid's cache: a damaged cache entry is a miss, not an error.
 
-    With ``cache=True`` the dispatcher's cache (numba's ``FunctionCache``) is
-    given :class:`_TolerantCache`'s methods: an index or code file that cannot
-    be unpickled (truncated, garbage) makes the kernel compile again and the
-    entry be rewritten. If numba's internals differ from what this expects,
-    numba's own cache is kept unchanged.
+    With ``cache=True`` the dispatcher's cache is enabled and handed to
+    :data:`CACHE_HOOK` (set by :mod:`adaptid._kernels.toolchain._cache` when
+    :mod:`adaptid._kernels` is imported: it makes a damaged index or code file
+    a miss). Without the hook, or if numba's internals differ from what it
+    expects, numba's own cache is kept unchanged.
     """
     import numba
 
@@ -122,91 +122,17 @@ def njit(*args, **options):
         disp = numba.njit(**dict(options, cache=False))(fn)
         if cache and hasattr(disp, "enable_caching"):  # not under NUMBA_DISABLE_JIT=1
             disp.enable_caching()
-            cache_obj = getattr(disp, "_cache", None)
-            if type(cache_obj) is _tolerant_base():
-                cache_obj.__class__ = _tolerant_cache()
+            if CACHE_HOOK is not None:
+                CACHE_HOOK(disp)
         return disp
     if args and callable(args[0]) and not options:
         return wrap(args[0])
     return wrap
 
 
-#: ``load(cache, sig, target_context)`` of the kernels compiled at install, or None;
-#: set by :func:`adaptid._kernels._installed.register`.
-INSTALLED = None
-
-
-def _start_runtime(target_context):
-    """What loading compiled code from the cache needs of numba's target: its runtime.
-
-    numba's ``FunctionCache.load_overload`` first calls ``target_context.refresh()``,
-    which also loads every typing and lowering registry of numba (and with them
-    scipy.linalg, cffi, ...): a visible part of the first process's start
-    (``benchmarks/bench_coldstart.py``, warm rows), needed to *compile* but not
-    to load compiled code. The code of a
-    cached kernel needs the runtime (NRT) symbols only; a compilation that
-    follows refreshes the context itself (``numba.core.compiler``).
-    """
-    from numba.core.runtime import rtsys
-    rtsys.initialize(target_context)
-
-
-def _tolerant_base():
-    from numba.core.caching import FunctionCache
-    return FunctionCache
-
-
-_TOLERANT = []
-
-
-def _tolerant_cache():
-    """numba's FunctionCache whose load and save survive damaged files (built once)."""
-    if _TOLERANT:
-        return _TOLERANT[0]
-
-    class _TolerantCache(_tolerant_base()):
-        def load_overload(self, sig, target_context):
-            try:
-                return self._load_compiled(sig, target_context)
-            except Exception:  # noqa: BLE001 - UnpicklingError, EOFError, OSError, ...
-                self._drop_index()
-                return None     # a miss: numba compiles
-
-        def _load_compiled(self, sig, target_context):
-            load = getattr(super(), "_load_overload", None)
-            if load is None:                # other numba internals: numba's own path
-                return super().load_overload(sig, target_context)
-            _start_runtime(target_context)
-            data = load(sig, target_context)
-            return data if data is not None else self._load_installed(sig, target_context)
-
-        def _load_installed(self, sig, target_context):
-            """A miss: the kernel as compiled when adaptid was installed (:data:`INSTALLED`)."""
-            if INSTALLED is None:
-                return None
-            try:
-                return INSTALLED(self, sig, target_context)
-            except Exception:  # noqa: BLE001 - a damaged or foreign entry is a miss too
-                return None
-
-        def save_overload(self, sig, data):
-            try:
-                super().save_overload(sig, data)
-            except Exception:  # noqa: BLE001 - the index was damaged: start it afresh
-                self._drop_index()
-                try:
-                    super().save_overload(sig, data)
-                except Exception:  # noqa: BLE001 - caching is only an optimisation
-                    pass
-
-        def _drop_index(self):
-            try:
-                self.flush()   # an empty index for this function (numba's own writer)
-            except Exception:  # noqa: BLE001
-                pass
-
-    _TOLERANT.append(_TolerantCache)
-    return _TolerantCache
+#: ``hook(dispatcher)`` applied to every cached kernel's dispatcher, or None; set by
+#: :func:`adaptid._kernels.toolchain._cache.install` (numba's internals stay there).
+CACHE_HOOK = None
 
 
 # fastmath={"contract"} lets LLVM fuse a*b + c into one FMA instruction (what
@@ -233,7 +159,7 @@ MAX_SPECIALISED_N = int(os.environ.get("ADAPTID_MAX_SPECIALISED_N", "16"))
 #: digits in that direction.
 DOWNDATE_RTOL = 1e-8
 
-#: ``P0="diffuse"`` (exact diffuse start, :mod:`adaptid._kernels._diffuse`): RLS
+#: ``P0="diffuse"`` (exact diffuse start, :mod:`adaptid._kernels.recursions._diffuse`): RLS
 #: and the sliding window treat θ as identified once the square-root
 #: information factor R has σ_min(R) > DIFFUSE_RCOND · σ_max(R) (the weighted
 #: Φ is then of full numerical rank; below it the minimum-norm solution drops

@@ -48,7 +48,7 @@ __all__ = [
     "from_dict",
 ]
 
-# kernel modes (see adaptid._kernels._strategy._rls_strategy_stream)
+# kernel modes (see adaptid._kernels.recursions._strategy._rls_strategy_stream)
 _EXP, _DIR, _CT, _EFRA, _VAR = 0, 1, 2, 3, 4
 
 

@@ -25,7 +25,7 @@ DEMO_WINDOW_FIT = textwrap.dedent("""
     from adaptid.datasets import dc_motor
     from adaptid.estimators import size_generic_kernels
     from adaptid.models import dc_motor_regressors
-    from adaptid._kernels import _window
+    from adaptid._kernels.recursions import _window
     data, _ = dc_motor(seed=0)
     regs = dc_motor_regressors(data.time.to_numpy(), data.voltage.to_numpy(),
                                data.current.to_numpy(), data.speed.to_numpy(),

@@ -472,7 +472,7 @@ def test_benchmark_scripts_run(script, args):
 # LMS and NLMS (stochastic gradient, no covariance)
 # --------------------------------------------------------------------------
 # n = 4: the kernel's dot products are sequential; n = 10: four partial sums
-# plus a remainder of two (adaptid/_kernels/_lms.py, _dot), which the C code
+# plus a remainder of two (adaptid/_kernels/recursions/_lms.py, _dot), which the C code
 # must reproduce. Steps: LMS μ = 0.01 < 2/λmax(E φφᵀ) = 2 for standard-normal
 # regressors (mean convergence, Widrow & Stearns 1985, ch. 6); NLMS μ = 0.5 in
 # (0, 2) (Haykin 2002, sec. 6.1); NLMS at n = 10 with padasip's ε = 1e-3.

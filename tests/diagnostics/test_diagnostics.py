@@ -15,7 +15,7 @@ from adaptid.diagnostics import (
     fit_percent,
     recursive_residuals,
 )
-from adaptid._kernels._residuals import recursive_residuals_kernel
+from adaptid._kernels.layers._residuals import recursive_residuals_kernel
 
 
 # --------------------------------------------------------------------------

@@ -145,7 +145,7 @@ def _has_complex(x):
 def estimators(draw, batched=None):
     """A valid estimator of any kind, fresh or after some data, maybe batched."""
     kind = draw(st.sampled_from(["RLS", "SlidingWindowRLS", "KalmanRLS"]))
-    # every n is a compiled specialisation of every kernel family (adaptid._kernels._dims):
+    # every n is a compiled specialisation of every kernel family (adaptid._kernels.toolchain._dims):
     # n = 1 (the edge) and n = 3 keep the suite's cold compile time in bounds; the kernels'
     # dependence on n is tested against references at n = 1..18 elsewhere
     n = draw(st.sampled_from([1, 3]))

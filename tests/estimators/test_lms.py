@@ -34,7 +34,7 @@ def _data(rng, N=2000, n=4, p=None, noise=0.1):
 
 # ------------------------------------------------------------------ padasip
 # n = 10: the kernel sums the dot products in four partial sums plus a tail
-# for n >= 8 (adaptid._kernels._lms._dot), sequentially below
+# for n >= 8 (adaptid._kernels.recursions._lms._dot), sequentially below
 @pytest.mark.parametrize("n", [4, 10])
 @pytest.mark.parametrize("theta0", [None, "random"])
 def test_lms_equals_padasip_filterlms(rng, theta0, n):

@@ -261,10 +261,10 @@ def test_run_equals_updates_bit_for_bit(rng, make):
 
 @pytest.mark.parametrize("form,n", [("ud", 4), ("sqrt", 17), ("covariance", 3)])
 def test_the_step_kernels_are_steps_of_run(rng, form, n):
-    """update's narrow step entries (adaptid._kernels._step), called on packed samples
+    """update's narrow step entries (adaptid._kernels.recursions._step), called on packed samples
     one by one, give run's state and errors bit for bit: compiled, and in CI's
     NUMBA_DISABLE_JIT=1 step also as plain Python."""
-    from adaptid._kernels import _step
+    from adaptid._kernels.recursions import _step
     N = 60
     Phi, y, _ = make_data(rng, N, n)
     Phi[7, 0] = np.nan  # skipped

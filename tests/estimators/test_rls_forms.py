@@ -246,7 +246,7 @@ def test_covariance_form_repair_in_batched_and_segments_warns(rng):
 
 @pytest.mark.parametrize("n", [8, 13, 33])
 def test_covariance_vector_sweep_monitor_is_the_rule(rng, n):
-    """n in the range of the vector sweep (5..VECTOR_SWEEP_MAX, _kernels/_covsweep.py:
+    """n in the range of the vector sweep (5..VECTOR_SWEEP_MAX, _kernels/toolchain/_covsweep.py:
     33 is in it except on AMD Zen), a full block and blocks with a rest: the
     windup sample the kernel reports is the rule's,
     evaluated in NumPy on P after every update()."""

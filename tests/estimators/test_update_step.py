@@ -1,4 +1,4 @@
-"""update through its narrow step entry (adaptid._kernels._step) against run.
+"""update through its narrow step entry (adaptid._kernels.recursions._step) against run.
 
 DESIGN.md: "``run`` must give bit-for-bit the same result as calling ``update`` N
 times". With the step entry compiled (``compile_update``), ``update`` takes it;
@@ -14,6 +14,12 @@ import pytest
 
 import adaptid
 from adaptid import CovarianceWindupWarning
+from adaptid._kernels.toolchain._patches import enabled
+
+#: the tests that need the step entry (patch ``step-entry``); with it switched off
+#: (ADAPTID_NUMBA_PATCHES=0, .ci/run) ``update`` is always a run of length 1
+needs_step = pytest.mark.skipif(not enabled("step-entry"),
+                                reason="patch step-entry is off: no step entry to test")
 
 # (form, n): the U-D stream, Potter's square-root form, the covariance form
 CASES = [("ud", 4), ("sqrt", 17), ("covariance", 3)]
@@ -39,6 +45,7 @@ def _same(a, b):
     assert a.n_updates == b.n_updates
 
 
+@needs_step
 @pytest.mark.parametrize("form,n", CASES)
 @pytest.mark.parametrize("p", [1, 2])
 def test_update_through_the_step_entry_is_run_bit_for_bit(form, n, p):
@@ -55,6 +62,7 @@ def test_update_through_the_step_entry_is_run_bit_for_bit(form, n, p):
     assert np.array_equal(np.array(errors).reshape(tr.error.shape), tr.error)
 
 
+@needs_step
 @pytest.mark.parametrize("form,n", CASES)
 def test_skipped_samples_and_a_state_file_in_the_middle(form, n, tmp_path):
     Phi, y, _, _ = _data(n, 1, N=120, seed=3)
@@ -107,11 +115,12 @@ def _messages(est, Phi, y, category):
     return [str(w.message) for w in got if issubclass(w.category, category)]
 
 
+@needs_step
 def test_the_windup_warning_is_that_of_update_through_run(monkeypatch):
     """No excitation of the second parameter under forgetting: its pivot passes the
     threshold. The step entry warns as an update through run's entry does, at the
     same sample, and ends in run's bits."""
-    from adaptid._kernels import _step
+    from adaptid._kernels.recursions import _step
     N = 400
     Phi = np.column_stack([np.ones(N), np.zeros(N)])
     y = np.ones(N)
@@ -143,7 +152,7 @@ def test_estimators_without_a_step_entry_say_so():
 def test_the_step_entry_is_taken_only_when_it_costs_no_compilation(monkeypatch):
     """Found in this process or a cache: taken. Not found: update does not compile
     it, and goes through run's entry."""
-    from adaptid._kernels import _step
+    from adaptid._kernels.recursions import _step
     est = adaptid.RLS(5, form="ud")
     calls = []
     monkeypatch.setattr(_step, "entry_point", lambda disp, args: calls.append(disp) or None)
@@ -160,9 +169,10 @@ def test_the_step_entry_is_taken_only_when_it_costs_no_compilation(monkeypatch):
     assert len(steps()) == 2
 
 
+@needs_step
 def test_a_new_windup_threshold_reaches_the_step_entry(monkeypatch):
     """windup_threshold set between updates: the packed sample carries the new one."""
-    from adaptid._kernels import _step
+    from adaptid._kernels.recursions import _step
     Phi, y, _, _ = _data(4, 1, N=40, seed=5)
 
     def messages(est):

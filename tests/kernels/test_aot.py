@@ -1,4 +1,4 @@
-"""The kernels compiled at install (adaptid.cli._aot builds, adaptid._kernels._installed loads): a cold process loads instead of compiling.
+"""The kernels compiled at install (adaptid.cli._aot builds, adaptid._kernels.toolchain._installed loads): a cold process loads instead of compiling.
 
 Each check runs fresh Python processes on their own empty numba cache folder and an
 AOT folder built here (``python -m adaptid.cli._aot build --tasks rls:3``), so it does
@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 import adaptid
-from adaptid._kernels import _installed
+from adaptid._kernels.toolchain import _installed
 from adaptid.cli import _aot
 
 SRC = Path(adaptid.__file__).resolve().parents[1]
@@ -27,7 +27,8 @@ CHILD = textwrap.dedent("""
     import json
     import numpy as np
     import adaptid
-    from adaptid._kernels import _installed, _rls
+    from adaptid._kernels.toolchain import _installed
+    from adaptid._kernels.recursions import _rls
     stats = lambda f: (sum(f.stats.cache_misses.values()), sum(f.stats.cache_hits.values()))
     rng = np.random.default_rng(7)
     Phi = rng.standard_normal((200, 3)); y = Phi @ np.array([1.0, -2.0, 0.5]) + 0.1 * rng.standard_normal(200)

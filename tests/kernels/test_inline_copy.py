@@ -1,4 +1,4 @@
-"""adaptid._kernels._inline: numba's inliner copies an inlined IR once, not once per block.
+"""adaptid._kernels.toolchain._inline: numba's inliner copies an inlined IR once, not once per block.
 
 The patch changes compile time only: the kernels' machine code must be the
 same with and without it, it must apply only to adaptid's own functions, and
@@ -18,13 +18,14 @@ import pytest
 from numba.core import inline_closurecall as icc
 
 import adaptid  # noqa: F401 - importing adaptid installs the patch
-from adaptid._kernels import _inline
+from adaptid._kernels.toolchain import _inline
 
 _ASM = textwrap.dedent("""
     import hashlib, json, sys
     import numpy as np
-    from adaptid._kernels import _inline, _rls
-    from adaptid._kernels._dims import tags
+    from adaptid._kernels.toolchain import _inline
+    from adaptid._kernels.recursions import _rls
+    from adaptid._kernels.toolchain._dims import tags
     import adaptid
     rng = np.random.default_rng(0)
     X = rng.standard_normal((50, 3))
@@ -109,7 +110,7 @@ def test_applies_to_adaptid_functions_only(monkeypatch, module, shared):
 
 def test_switched_off_by_the_environment():
     env = dict(os.environ, ADAPTID_FAST_INLINE="0")
-    code = ("import adaptid; from adaptid._kernels import _inline; "
+    code = ("import adaptid; from adaptid._kernels.toolchain import _inline; "
             "from numba.core import inline_closurecall as icc; import copy; "
             "print(_inline.installed(), icc.copy is copy)")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,

@@ -1,4 +1,4 @@
-"""The stack scratch arrays of the specialised kernels (adaptid._kernels._scratch).
+"""The stack scratch arrays of the specialised kernels (adaptid._kernels.toolchain._scratch).
 
 The speed of the RLS kernel depends on these arrays really being on the stack
 when n is a compile-time constant (benchmarks/bench_rls.py). numba picks the
@@ -13,7 +13,7 @@ from numba import njit
 
 from adaptid import _kernels
 from adaptid._config import NJIT
-from adaptid._kernels._scratch import SMALL_MAX, scratch, scratch2, small_scratch
+from adaptid._kernels.toolchain._scratch import SMALL_MAX, scratch, scratch2, small_scratch
 
 
 def _heap_allocs(fn):
@@ -76,10 +76,10 @@ def test_runtime_size_falls_back_to_the_heap():
 
 def test_rls_kernel_allocates_nothing_on_the_heap():
     """In the n = 4, p = 1 RLS run kernel (tuple tags: sizes known at compile
-    time, adaptid._kernels._dims) every work array -- the factor copy, the
+    time, adaptid._kernels.toolchain._dims) every work array -- the factor copy, the
     work vectors, the error vector -- is on the stack."""
     import adaptid
-    from adaptid._kernels import _rls
+    from adaptid._kernels.recursions import _rls
     from numba import types
 
     est = adaptid.RLS(4, forgetting=0.99)

@@ -1,4 +1,4 @@
-"""The compiled DC-motor simulator (adaptid._kernels._simulators) against its own Python source.
+"""The compiled DC-motor simulator (adaptid._kernels.layers._simulators) against its own Python source.
 
 Oracle: the same kernel source run by the Python interpreter
 (``NUMBA_DISABLE_JIT=1`` in a subprocess), which evaluates every IEEE
@@ -14,13 +14,13 @@ import sys
 
 import numpy as np
 
-from adaptid._kernels._simulators import DC_MOTOR_PARAMETER_ORDER, simulate_dc_motor
+from adaptid._kernels.layers._simulators import DC_MOTOR_PARAMETER_ORDER, simulate_dc_motor
 from adaptid.datasets._dc_motor import MOTOR_PARAMETERS
 
 _SCRIPT = r"""
 import sys
 import numpy as np
-from adaptid._kernels._simulators import simulate_dc_motor
+from adaptid._kernels.layers._simulators import simulate_dc_motor
 v, p, x0 = (np.array(eval(a)) for a in sys.argv[1:4])
 states = np.empty((v.shape[0], 4))
 simulate_dc_motor(v, 1e-3, 20, v.shape[0] // 2, p, x0, states)

@@ -1,6 +1,6 @@
-"""The structure-of-arrays RLS kernels (``_kernels/_soa.py``) against ``RLS.run``.
+"""The structure-of-arrays RLS kernels (``_kernels/lanes/_soa.py``) against ``RLS.run``.
 
-Oracle: ``RLS.run`` on one stream (the scalar U-D kernel of ``_kernels/_rls.py``,
+Oracle: ``RLS.run`` on one stream (the scalar U-D kernel of ``_kernels/recursions/_rls.py``,
 not written with the lane kernels): every stream of ``run_batched`` and every
 segment of ``run_segments`` must equal it bit for bit (``np.array_equal``, NaN
 where the run has NaN), because the lane kernels do the same floating-point
@@ -16,7 +16,7 @@ import pytest
 
 import adaptid
 from adaptid import _kernels
-from adaptid._kernels import _soa
+from adaptid._kernels.lanes import _soa
 from adaptid.forgetting import Directional
 
 pytestmark = pytest.mark.skipif(
@@ -55,7 +55,7 @@ def _routed(est, kernel):
 
 
 # covariance: n = 3 forms P's rank-one term with 1/d (n <= SQRT_FREE_N), n = 5 with
-# c = u/sqrt(d) (_kernels/_soa_cov.py)
+# c = u/sqrt(d) (_kernels/lanes/_soa_cov.py)
 @pytest.mark.parametrize("n, form", [(1, "ud"), (3, "ud"), (8, "ud"), (3, "covariance"),
                                      (5, "covariance")])
 def test_batched_equals_run_per_stream(n, form):
@@ -228,7 +228,7 @@ def test_several_outputs_old_path_equals_run():
         assert _same(tb.theta[s], tr.theta) and _same(tb.error[s], tr.error)
 
 
-# --- the covariance form's lanes (_kernels/_soa_cov.py) ---
+# --- the covariance form's lanes (_kernels/lanes/_soa_cov.py) ---
 def _covariance_codes(est, kernel, what, *args):
     """Run ``what`` routed to ``kernel`` (None: the scalar kernels); its result and the
     kernel's per-stream codes."""

@@ -6,7 +6,7 @@ pip's build environment, which has numba, NumPy and SciPy (``[build-system]
 requires`` in pyproject.toml): numba's cache files of the kernels that first calls
 need go to ``src/adaptid/_kernels/_aot`` (package data, and the source folder of an
 editable install). At run time they are used only when they match the installed
-numba, the kernels' sources and the CPU (see ``adaptid/_kernels/_installed.py``); otherwise numba
+numba, the kernels' sources and the CPU (see ``adaptid/_kernels/toolchain/_installed.py``); otherwise numba
 compiles as it would without them.
 
 ``ADAPTID_AOT_BUILD=0`` skips the step (the install is then as before: every kernel

@@ -4,7 +4,7 @@
 each on its own empty numba cache folder, and merges numba's cache files of
 adaptid's kernels into one folder (default: ``adaptid/_kernels/_aot``) with a
 ``MANIFEST.json``. The build backend ``tools/pep517/aot_backend.py`` runs it
-when pip builds adaptid; :mod:`adaptid._kernels._installed` loads the entries
+when pip builds adaptid; :mod:`adaptid._kernels.toolchain._installed` loads the entries
 on a cache miss, when they match.
 
 The kernels: the default form of :class:`adaptid.RLS` at every size it is
@@ -22,14 +22,13 @@ from __future__ import annotations
 
 import json
 import os
-import pickle
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
 
-from .._kernels import _installed
+from .._kernels.toolchain import _installed
 
 __all__ = ["TASKS", "build", "main"]
 
@@ -108,46 +107,6 @@ def _split(tasks, jobs):
     return [names for _, names in loads if names]
 
 
-def _merge(folders, out):
-    """Copy every adaptid kernel's entries of numba's cache ``folders`` into ``out``,
-    renumbering the data files, with numba's own index format. Returns the count."""
-    import numba
-    from numba.core.caching import IndexDataCacheFile
-
-    from .._kernels._cache import SOURCE_STAMP
-
-    stamp = ("adaptid-kernels", SOURCE_STAMP)
-    merged = {}  # filename base -> {key: data bytes}
-    for folder in folders:
-        for root, _, files in os.walk(folder):
-            for fn in files:
-                if not fn.endswith(".nbi"):
-                    continue
-                with open(os.path.join(root, fn), "rb") as fh:
-                    version = pickle.load(fh)
-                    if version != numba.__version__:
-                        continue
-                    got, overloads = pickle.loads(fh.read())
-                if got != stamp:  # not one of the kernels (or another source)
-                    continue
-                entries = merged.setdefault(fn[:-4], {})
-                for key, data_name in overloads.items():
-                    with open(os.path.join(root, data_name), "rb") as fh:
-                        entries[key] = fh.read()
-    count = 0
-    for base, entries in merged.items():
-        store = IndexDataCacheFile(cache_path=out, filename_base=base, source_stamp=stamp)
-        index = {}
-        for i, (key, blob) in enumerate(entries.items(), 1):
-            name = f"{base}.{i}.nbc"
-            with open(os.path.join(out, name), "wb") as fh:
-                fh.write(blob)
-            index[key] = name
-            count += 1
-        store._save_index(index)
-    return count
-
-
 # sys.path as the parent has it (pip's build environment resets PYTHONPATH's effect)
 _WORKER = "import sys; sys.path[:0] = {path!r}; from adaptid.cli._aot import main; sys.exit(main({args!r}))"
 
@@ -161,7 +120,7 @@ def build(out=None, *, jobs=None, tasks=None) -> dict:
     """
     import numba
 
-    from .._kernels._cache import SOURCE_STAMP
+    from .._kernels.toolchain._cache import SOURCE_STAMP
 
     t0 = time.perf_counter()
     out = out or _installed.folder()
@@ -186,7 +145,7 @@ def build(out=None, *, jobs=None, tasks=None) -> dict:
         stage = tempfile.mkdtemp(prefix=".aot-", dir=parent)
         try:
             os.chmod(stage, 0o755)
-            count = _merge([os.path.join(tmp, f"cache{i}") for i in range(len(groups))], stage)
+            count = _installed.merge([os.path.join(tmp, f"cache{i}") for i in range(len(groups))], stage)
             man = {"numba": numba.__version__, "stamp": SOURCE_STAMP, "entries": count,
                    "python": list(sys.version_info[:2]),
                    "tasks": [n for g in groups for n in g],

@@ -448,6 +448,11 @@ def info(
         aot = data["compiled_at_install"]
         rows.append(["kernels compiled at install",
                      f"{aot['kernels']}, used" if aot["used"] else f"not used: {aot['why_not']}"])
+        patches = data["numba_patches"]
+        rows.append(["numba patches applied", ", ".join(p["name"] for p in patches if p["applied"])
+                     or "none (ADAPTID_NUMBA_PATCHES=0)"])
+        if any(not p["applied"] for p in patches):
+            rows.append(["numba patches off", ", ".join(p["name"] for p in patches if not p["applied"])])
         if out.verbose:
             rows.append(["executable", data["executable"]])
         out.print(rich_table("adaptid installation", ["item", "value"], rows, left=2,

@@ -1,5 +1,5 @@
 """``adaptid info``: versions, numba's threading layer and target CPU, the kernels compiled
-at install, installed extras."""
+at install, the patches of numba internals in effect, installed extras."""
 
 from __future__ import annotations
 
@@ -61,8 +61,8 @@ def gather_info() -> dict:
     import scipy
 
     import adaptid
-    from adaptid._kernels import _installed
-    from adaptid._kernels._vecir import target_cpu
+    from adaptid._kernels.toolchain import _installed, patch_status
+    from adaptid._kernels.toolchain._vecir import target_cpu
 
     configured = numba.config.THREADING_LAYER
     # a tiny call of a parallel (prange) kernel makes numba choose its layer
@@ -85,8 +85,11 @@ def gather_info() -> dict:
         "numba_num_threads": int(numba.config.NUMBA_NUM_THREADS),
         # the CPU the kernels are compiled (and cached) for; some tuning follows it
         "numba_target_cpu": target_cpu(),
-        # the kernels compiled when adaptid was installed (adaptid._kernels._installed)
+        # the kernels compiled when adaptid was installed (adaptid._kernels.toolchain._installed)
         "compiled_at_install": _installed.status(),
+        # adaptid's patches of numba internals (adaptid._kernels.toolchain._patches):
+        # name, switch, on, applied, what, fallback
+        "numba_patches": patch_status(),
         "cpu_count": os.cpu_count(),
         "extras": _extras(),
     }

@@ -28,10 +28,10 @@ _CHILD = "from {module} import {function}; {function}({args!r})"
 
 def _cached(kernel):
     """Whether numba's cache folder, or the kernels compiled at install
-    (:mod:`adaptid._kernels._installed`), already hold an index for ``kernel``
+    (:mod:`adaptid._kernels.toolchain._installed`), already hold an index for ``kernel``
     ("<module>.<function>" of adaptid/_kernels, e.g. "_window._window_core")."""
     from .. import _config
-    from .._kernels import _installed
+    from .._kernels.toolchain import _installed
 
     folders = [_config.CACHE_DIR] + ([_installed.folder()]
                                      if _installed.enabled() and _installed._ready() else [])

@@ -48,7 +48,7 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
 
     LMS and NLMS (MATLAB ``recursiveLS`` ``Gradient`` / ``NormalizedGradient``;
     Widrow & Stearns 1985, eq. 6.3; Haykin 2002, eq. 6.44) follow
-    :mod:`adaptid._kernels._lms`: the same dot products (four partial sums
+    :mod:`adaptid._kernels.recursions._lms`: the same dot products (four partial sums
     for n ≥ 8), the same test for non-finite samples, weight w = 1:
 
     .. math::

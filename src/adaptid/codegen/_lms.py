@@ -1,7 +1,7 @@
 r"""C update of the gradient estimators LMS and NLMS (no covariance).
 
 Mirrors, operation for operation, ``_lms_stream`` of
-:mod:`adaptid._kernels._lms` for one output and weight 1: the same dot
+:mod:`adaptid._kernels.recursions._lms` for one output and weight 1: the same dot
 products (sequential for n < 8, four interleaved partial sums for n ≥ 8, as
 its ``_dot``), the same cheap finiteness test with the exact check as the
 fallback, the same gain ``μ`` (LMS) or ``μ / (ε₀ + φᵀφ)`` (NLMS, no step when
@@ -19,7 +19,7 @@ KINDS = ("LMS", "NLMS")
 # sign * a_i is exact (sign = +-1) and every product is fused into its sum
 _DOT_SEQ = r"""
 /* c + sign * sum_i a_i b_i (sign = +1 or -1), summed in index order as
- * adaptid's kernel sums it (adaptid/_kernels/_lms.py, _dot, n < 8). */
+ * adaptid's kernel sums it (adaptid/_kernels/recursions/_lms.py, _dot, n < 8). */
 static real dot(real c, real sign, const real a[$N], const real b[$N])
 {
     real s = c;
@@ -33,7 +33,7 @@ static real dot(real c, real sign, const real a[$N], const real b[$N])
 
 _DOT_PARTIAL = r"""
 /* c + sign * sum_i a_i b_i (sign = +1 or -1) in four interleaved partial sums,
- * as adaptid's kernel sums it for n >= 8 (adaptid/_kernels/_lms.py, _dot: it
+ * as adaptid's kernel sums it for n >= 8 (adaptid/_kernels/recursions/_lms.py, _dot: it
  * shortens the loop-carried chain theta_k <- eps_k <- theta_{k-1}). */
 static real dot(real c, real sign, const real a[$N], const real b[$N])
 {
@@ -60,7 +60,7 @@ static real dot(real c, real sign, const real a[$N], const real b[$N])
 # be -0 and keep the 0.0 +). The generic kernel (a loop) sums as _DOT_PARTIAL.
 _SUMSQ_UNROLLED = r"""
 /* c + phi^T phi in four partial sums, fused as adaptid's kernel specialised
- * for n fuses them (adaptid/_kernels/_lms.py, _dot; see codegen/_lms.py). */
+ * for n fuses them (adaptid/_kernels/recursions/_lms.py, _dot; see codegen/_lms.py). */
 static real sumsq(real c, const real a[$N])
 {
     real s0 = FMA(a[0], a[0], c);

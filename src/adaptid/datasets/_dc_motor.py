@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .._kernels._simulators import DC_MOTOR_PARAMETER_ORDER, simulate_dc_motor
+from .._kernels.layers._simulators import DC_MOTOR_PARAMETER_ORDER, simulate_dc_motor
 from .._validation import check_scalar, param_error
 
 __all__ = ["dc_motor", "MOTOR_PARAMETERS"]
@@ -219,7 +219,7 @@ def _check_arguments(seed, duration, dt):
 def _motor_states(voltage, dt, k_load, prm):
     """(N, 4) states [i, ω, T, angle] at the sample instants, from rest at ambient temperature.
 
-    RK4 sub-steps of at most 50 µs (compiled kernel of :mod:`adaptid._kernels._simulators`).
+    RK4 sub-steps of at most 50 µs (compiled kernel of :mod:`adaptid._kernels.layers._simulators`).
     """
     n_sub = max(1, int(math.ceil(dt / 5e-5 - 1e-9)))
     x0 = np.array([0.0, 0.0, prm["T_amb"], 0.0])

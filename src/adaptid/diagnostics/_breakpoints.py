@@ -10,7 +10,7 @@ from scipy.optimize import brentq
 from scipy.special import log_ndtr
 
 from .._exceptions import AdaptidWarning
-from .._kernels._breakpoints import breakpoints_dp
+from .._kernels.layers._breakpoints import breakpoints_dp
 from .._validation import check_int, check_scalar, param_error
 from ._sc_common import lazy_pyplot, ols, regression_data
 

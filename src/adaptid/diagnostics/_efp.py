@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._kernels._breakpoints import moving_estimates, recursive_estimates
+from .._kernels.layers._breakpoints import moving_estimates, recursive_estimates
 from .._validation import check_choice, check_scalar, param_error
 from ._pvalues import efp_critical_value, pvalue_efp
 from ._recursive import recursive_residuals

@@ -8,7 +8,7 @@ import numpy as np
 from scipy.special import logsumexp
 from scipy.stats import f as f_dist
 
-from .._kernels._breakpoints import prefix_rss
+from .._kernels.layers._breakpoints import prefix_rss
 from .._validation import check_choice, check_int, check_scalar, param_error
 from ._pvalues import pvalue_fstats
 from ._sc_common import lazy_pyplot, regression_data

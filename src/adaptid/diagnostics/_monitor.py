@@ -6,7 +6,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.stats import norm
 
-from .._kernels._breakpoints import moving_estimates
+from .._kernels.layers._breakpoints import moving_estimates
 from .._validation import as_float_array, check_choice, check_scalar, param_error
 from . import _sc_tables as _T
 from ._sc_common import lazy_pyplot, ols, regression_data, root_from_factor

@@ -8,7 +8,7 @@ import numpy as np
 
 from .._exceptions import ExcitationWarning
 from .._validation import as_float_array, param_error
-from .._kernels._residuals import recursive_residuals_kernel
+from .._kernels.layers._residuals import recursive_residuals_kernel
 
 __all__ = ["recursive_residuals"]
 

@@ -3,12 +3,12 @@ r"""The three forms of RLS's covariance: U-D, square root (Potter) and covarianc
 ``RLS(form=...)`` chooses how P is propagated when the forgetting is plain
 exponential (no strategy, no ``P_max``; those run on the U-D factors only):
 
-* ``"ud"`` — :math:`P = U\,\mathrm{diag}(D)\,U^T` (Bierman), :mod:`adaptid._kernels._rls`;
+* ``"ud"`` — :math:`P = U\,\mathrm{diag}(D)\,U^T` (Bierman), :mod:`adaptid._kernels.recursions._rls`;
 * ``"sqrt"`` — :math:`P = S S^T`, S full n × n (Potter),
-  :mod:`adaptid._kernels._potter`: one vectorised sweep over S per sample;
+  :mod:`adaptid._kernels.recursions._potter`: one vectorised sweep over S per sample;
 * ``"covariance"`` — P itself, exactly symmetric (MATLAB ``recursiveLS``
   arithmetic), with a definiteness monitor that repairs P,
-  :mod:`adaptid._kernels._covariance`;
+  :mod:`adaptid._kernels.recursions._covariance`;
 * ``"auto"`` (default) — U-D for n ≤ :data:`AUTO_SQRT_ABOVE` (15), for n above
   :data:`FORMS_SPECIALISED_N` (64) and for an exact diffuse start, the
   square-root form in between (the faster one at each n,

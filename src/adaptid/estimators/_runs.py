@@ -2,7 +2,7 @@ r"""The runs: ``run``, ``run_batched`` and ``run_segments``, and what they share
 
 Each validates its input (:mod:`._inputs`), allocates the kernel's outputs, calls
 one compiled entry of the algorithm (:class:`adaptid._kernels.Entries`, or a
-structure-of-arrays kernel of :mod:`adaptid._kernels._soa` for many streams),
+structure-of-arrays kernel of :mod:`adaptid._kernels.lanes._soa` for many streams),
 restores the state and raises if ``nan_policy="raise"`` met a non-finite sample,
 counts, warns (:mod:`._warn`) and returns its result.
 
@@ -206,7 +206,7 @@ def run_segments(self, Phi, y, offsets, *, weights=None, store=False, stats=Fals
 
 
 def soa_entry(self, what, count, store=False):
-    """The structure-of-arrays kernel (:mod:`adaptid._kernels._soa`, bit for bit the
+    """The structure-of-arrays kernel (:mod:`adaptid._kernels.lanes._soa`, bit for bit the
     same results, several streams per vector instruction) when it pays: RLS in U-D
     form (its kernels, no strategy; n <= ``MAX_N``) or in covariance form (n <=
     ``COV_MAX_N``), one output, n specialised, at least ``MIN_STREAMS`` streams or
@@ -214,7 +214,7 @@ def soa_entry(self, what, count, store=False):
     the scalar ones). Else None (the algorithm's own)."""
     if store or self._ptag != (0,) or not isinstance(self._ntag, tuple):
         return None
-    from .._kernels import _soa
+    from .._kernels.lanes import _soa
     if count < _soa.MIN_STREAMS:
         return None
     if self._kern is _kernels.RLS and self.n_params <= _soa.MAX_N:

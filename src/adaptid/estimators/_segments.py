@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._kernels._segments import segment_stats
+from .._kernels.recursions._segments import segment_stats
 from .._validation import param_error
 
 __all__ = ["SegmentResult"]

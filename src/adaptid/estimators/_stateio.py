@@ -74,7 +74,7 @@ def kernel_settings(self):
         without ``P_max``), ``strategy_params``, ``P_max`` (inf: none),
         ``window`` (0: none), ``process_cov``, ``noise_var``;
         ``diffuse_state``: None with a finite prior, else a copy of the
-        diffuse tail of the state (``adaptid._kernels._diffuse``).
+        diffuse tail of the state (``adaptid._kernels.recursions._diffuse``).
     """
     from ._settings import KernelSettings
     self._check_single("kernel_settings")

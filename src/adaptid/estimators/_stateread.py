@@ -254,7 +254,7 @@ def _factor_ok(S, o, n, p):
 
 
 def diffuse_tail(kind, n, p):
-    """Length of the diffuse tail of a ``P0="diffuse"`` state (see ``_kernels._diffuse``)."""
+    """Length of the diffuse tail of a ``P0="diffuse"`` state (see ``_kernels.recursions._diffuse``)."""
     return {"RLS": 1 + n * n + n * p, "SlidingWindowRLS": 2,
             "KalmanRLS": 2 + 2 * n * n}.get(kind, 0)
 

@@ -3,7 +3,7 @@ r"""``update``: one sample through the compiled code, in as few Python steps as 
 An update is bit for bit a step of ``run`` and takes one of two paths:
 
 * **the packed step** — when the algorithm has a narrow step entry
-  (:mod:`adaptid._kernels._step`; RLS's fast forms) and it costs no compilation
+  (:mod:`adaptid._kernels.recursions._step`; RLS's fast forms) and it costs no compilation
   (compiled at install, in numba's cache, or by :func:`compile_update`): φ, y,
   λ, w, the threshold, ε and the skipped flag sit in one packed row
   (:attr:`StepArrays.R`), and the call unboxes two arrays instead of eleven;
@@ -23,7 +23,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .._kernels import _step
+from .._kernels.recursions import _step
 from ._inputs import F64, read_only
 
 __all__ = ["StepArrays", "RunArgs", "RunCall", "update", "compile_update", "find_step",
@@ -88,7 +88,7 @@ class StepArrays:
         self.reports = reports
         self.call = RunCall()  # the kernel's arguments, rebuilt when S or the options change
         self.D = None  # the window's pivots (a view of S), checked after each step
-        # the packed sample of a narrow step entry (adaptid._kernels._step): φ, y, λ, w, ε,
+        # the packed sample of a narrow step entry (adaptid._kernels.recursions._step): φ, y, λ, w, ε,
         # the threshold, the skipped flag in one row R of W
         at = _step.layout(n, p)
         self.W = np.zeros((1, 1, at.width))
@@ -127,7 +127,7 @@ def update(self, phi, y, *, weight=1.0, forgetting=None):
     if S is not a.step_S:
         self._find_step(S)
     if a.step_ep is not None:
-        # the narrow step entry (adaptid._kernels._step): two arrays to unbox, not eleven
+        # the narrow step entry (adaptid._kernels.recursions._step): two arrays to unbox, not eleven
         R = a.R
         if type(phi) is np.ndarray and phi.dtype is F64 and phi.shape == a.nshape:
             a.Rphi[...] = phi
@@ -220,7 +220,7 @@ def compile_update(self) -> bool:
 def find_step(self, S):
     """Look up the narrow step entry for the state array ``S`` (once per S and options).
 
-    Used only if it costs no compilation (:func:`adaptid._kernels._step.entry_point`);
+    Used only if it costs no compilation (:func:`adaptid._kernels.recursions._step.entry_point`);
     else ``update`` goes through ``run``'s compiled code."""
     a = self._step
     a.step_S, a.step_ep = S, None

@@ -1,6 +1,6 @@
 r"""Per-sample statistics of the current window: ``run(..., stats=True)``.
 
-The compiled streams (:mod:`adaptid._kernels._rollstats`) keep, per sample,
+The compiled streams (:mod:`adaptid._kernels.recursions._rollstats`) keep, per sample,
 the sums of the data in the cost; this module turns them into the
 statistics of :class:`WindowStats`, with the one σ̂² rule of
 :func:`adaptid.recursive_fit_stats` (:func:`._sigma2.sigma2_rule`).
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._kernels._rollstats import HEAD
+from .._kernels.recursions._rollstats import HEAD
 from ._sigma2 import sigma2_rule
 
 __all__ = ["WindowStats", "detect_constant", "window_stats"]
@@ -70,7 +70,7 @@ class WindowStats:
     standard errors, t values, R², adjusted R², ℓ, AIC and BIC are NaN.
     Skipped samples (``nan_policy="skip"``) repeat the previous row.
 
-    ssr is kept recursively (:mod:`adaptid._kernels._rollstats`): adding a
+    ssr is kept recursively (:mod:`adaptid._kernels.recursions._rollstats`): adding a
     sample, :math:`J_k = \lambda_k J_{k-1} + w_k e_k\varepsilon_k` (a-priori
     and a-posteriori errors; Ljung & Söderström 1983, ch. 2); removing one
     from the window, :math:`J \leftarrow J - c\,r^2/(1 - c\,\varphi^TP\varphi)`
@@ -201,7 +201,7 @@ def check_stats(est, stats, has_constant) -> bool:
 
 def stats_rows(est, shape_N, want):
     """The kernels' ``St``: (..., N + 1, K) with row 0 the sums so far, or None."""
-    from .._kernels._rollstats import width
+    from .._kernels.recursions._rollstats import width
     lead = shape_N[:-1]
     if not want:
         return None  # the kernels' statistics hooks then compile to nothing

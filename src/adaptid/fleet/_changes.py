@@ -37,7 +37,7 @@ def _bde_a(alpha):
 
 def _statistics(est, res, Phi, Y, offsets, alpha_a, change_test, burn_in):
     """σ̂², residual RMS, standard errors and the CUSUM flag of every segment."""
-    from .._kernels._fleet import residual_ss_kernel
+    from .._kernels.layers._fleet import residual_ss_kernel
     G = offsets.shape[0] - 1
     n = Phi.shape[1]
     used = ~res.skipped
@@ -89,7 +89,7 @@ def _pvalue_tests(Phi, Y, used, offsets, change_test, alpha):
 
 def _bde_tests(res, Phi, Y, used, offsets, alpha_a, change_test, burn_in):
     """Brown–Durbin–Evans CUSUM crossing of every segment (compiled): (ratio, first)."""
-    from .._kernels._fleet import cusum_errors_kernel, recursive_residuals_segments
+    from .._kernels.layers._fleet import cusum_errors_kernel, recursive_residuals_segments
     G = offsets.shape[0] - 1
     n = Phi.shape[1]
     ratio = np.empty(G)

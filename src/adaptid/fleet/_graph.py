@@ -76,7 +76,7 @@ def _pandas_partitions(df, group, n_parts):
     """Split a pandas frame into ≤ n_parts row slices, each holding whole groups."""
     import pandas as pd
 
-    from .._kernels._fleet import scan_runs
+    from .._kernels.layers._fleet import scan_runs
     gv = _group_values(df, group)
     N = gv.shape[0]
     starts = np.empty(N + 1, dtype=np.int64)

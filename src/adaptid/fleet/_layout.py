@@ -45,7 +45,7 @@ def _layout(part, group, t, order_col):
     """
     import pandas as pd
 
-    from .._kernels._fleet import scan_runs
+    from .._kernels.layers._fleet import scan_runs
     gv = _group_values(part, group)
     N = gv.shape[0]
     tk = t if t is not None and t.dtype.kind in "if" else None
@@ -84,7 +84,7 @@ def _layout(part, group, t, order_col):
 
 def _gather(part, names, idx):
     """Columns ``names`` of ``part`` as C-ordered float64 rows (N, n), in row order idx."""
-    from .._kernels._fleet import gather_columns
+    from .._kernels.layers._fleet import gather_columns
     cols = [np.ascontiguousarray(_float_column(part, c, "phi")) for c in names]
     if not all(c.flags.writeable for c in cols):  # one kind of array in the tuple
         cols = [_readonly(c) for c in cols]

@@ -8,7 +8,7 @@ import numpy as np
 
 from .._exceptions import DefinitenessLossWarning
 from .._validation import param_error
-from .._kernels._pseudolinear import pseudolinear_run
+from .._kernels.layers._pseudolinear import pseudolinear_run
 
 __all__ = ["estimator_settings", "regressors_used", "run_pseudolinear", "run_signals",
            "signal_spec"]
@@ -97,7 +97,7 @@ def run_signals(Phi_fix, Y, spec, estimator, identified=None):
     definiteness is re-solved from its buffer (``n_rebuilds`` counts them,
     with one :class:`DefinitenessLossWarning`), as
     :class:`~adaptid.SlidingWindowRLS` does. With an estimator with
-    ``P0="diffuse"`` the start is exact (see :mod:`adaptid._kernels._pseudolinear`);
+    ``P0="diffuse"`` the start is exact (see :mod:`adaptid._kernels.layers._pseudolinear`);
     ``identified``, an optional (N,) float array, then receives per sample
     1.0 once the data determine θ (0.0 before; P is inf while not identified).
     """

@@ -1,0 +1,8 @@
+"""The kernels of the later layers: compiled loops that diagnostics, models,
+datasets and fleet call.
+
+``_residuals`` (recursive residuals), ``_breakpoints`` (recursive and moving
+estimates, F statistics, break dating), ``_pseudolinear`` (the pseudo-linear
+regressions of ARMAX/OE/BJ), ``_simulators`` (the DC motor), ``_fleet`` (the
+per-group scans of :mod:`adaptid.fleet`).
+"""
