@@ -178,7 +178,7 @@ def test_strucchange_tables_read_from_the_package_data_file():
     with pytest.raises(AttributeError):
         T.SC_NOT_A_TABLE
     import tomllib                                                  # shipped in wheel and sdist
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     project = tomllib.loads((root / "pyproject.toml").read_text())
     assert "diagnostics/data/*" in project["tool"]["setuptools"]["package-data"]["adaptid"]
     assert "include src/adaptid/diagnostics/data/sc_tables.json" in (
