@@ -247,13 +247,13 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     :math:`\Gamma_i = [C; CA; \dots; CA^{i-1}]` of order n (the number of
     singular values kept), for the weightings
 
-    ========== ========================================= ===================
-    method     :math:`W_1`                               :math:`W_2`
-    ========== ========================================= ===================
-    "n4sid"    I                                         I
-    "moesp"    I                                         :math:`\Pi^\perp_{U_f}`
-    "cva"      :math:`(Y_f\Pi^\perp_{U_f}Y_f^\mathsf T)^{-1/2}` :math:`\Pi^\perp_{U_f}`
-    ========== ========================================= ===================
+    ========== ==================================================== ==========================
+    method     :math:`W_1`                                          :math:`W_2`
+    ========== ==================================================== ==========================
+    "n4sid"    I                                                    I
+    "moesp"    I                                                    :math:`\Pi^\perp_{U_f}`
+    "cva"      :math:`(Y_f\Pi^\perp_{U_f}Y_f^\mathsf T)^{-1/2}`     :math:`\Pi^\perp_{U_f}`
+    ========== ==================================================== ==========================
 
     (N4SID: Van Overschee & De Moor 1994; MOESP in its past-output form:
     Verhaegen & Dewilde 1992, Verhaegen 1994; CVA: Larimore 1990.) Every
