@@ -3,11 +3,13 @@ r"""Realisation from Markov parameters: ERA (Ho–Kalman) and OKID."""
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
 
+from ..._lazy import lazy
 from ..._validation import as_float_array, check_int, check_scalar, param_error
 from ._model import StateSpaceModel
 from ._signals import experiments
+
+sla = lazy("scipy.linalg")  # imported on first use, as scipy.signal elsewhere
 
 __all__ = ["era", "okid"]
 
@@ -102,7 +104,10 @@ def era(markov, order=None, *, dt=1.0):
 
 
 def _observer_markov(ex, q, feedthrough):
-    r"""Least squares for the observer Markov parameters: :math:`y_k = Du_k + \sum_{j=1}^{q}(M^u_ju_{k-j} + M^y_jy_{k-j})`."""
+    r"""Least squares for the observer Markov parameters.
+
+    :math:`y_k = Du_k + \sum_{j=1}^{q}(M^u_ju_{k-j} + M^y_jy_{k-j}) + \varepsilon_k`.
+    """
     p, m = ex.p, ex.m
     rows, targets = [], []
     for Y, U in zip(ex.Y, ex.U):

@@ -172,7 +172,9 @@ class StateSpaceModel(StateSpacePresentation):
         return as_float_array(x0, "x0", shape=(self.order,))
 
     def simulate(self, u, x0=None):
-        r"""Output of the deterministic part for an input: :math:`x_{k+1} = Ax_k + Bu_k`, :math:`y_k = Cx_k + Du_k`.
+        r"""Output of the deterministic part for an input.
+
+        :math:`x_{k+1} = Ax_k + Bu_k`, :math:`y_k = Cx_k + Du_k` (no innovation).
 
         Parameters
         ----------

@@ -3,11 +3,13 @@ r"""Subspace identification: N4SID, MOESP and CVA (Van Overschee & De Moor 1996)
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
 
+from ..._lazy import lazy
 from ..._validation import check_choice, check_int, param_error
 from ._model import StateSpaceModel
 from ._signals import experiments, recurse
+
+sla = lazy("scipy.linalg")  # imported on first use, as scipy.signal elsewhere
 
 __all__ = ["n4sid"]
 
@@ -74,7 +76,7 @@ def _pinv_solve(M, rhs_t):
 
 
 def _weighted(Lb, method):
-    r"""(W₁ O_i W₂ as a small matrix, W₁⁻¹, Z = L₃₂L₂₂^†) for one of the three weightings.
+    r"""(W₁ O_i W₂ as a small matrix, W₁⁻¹, Z = L₃₂L₂₂^†) for one of the weightings.
 
     With the LQ blocks of [U_f; W_p; Y_f] (W_p = [U_p; Y_p]) the oblique
     projection is :math:`O_i = Y_f/_{U_f}W_p = L_{32}L_{22}^\dagger W_p`
