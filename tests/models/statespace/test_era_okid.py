@@ -49,3 +49,11 @@ def test_okid_with_noise_estimates_the_kalman_gain():
     ot = np.array([true.C @ np.linalg.matrix_power(true.A, k) @ true.K for k in range(4)])
     np.testing.assert_allclose(ok, ot, atol=0.05)
     np.testing.assert_allclose(model.noise_cov, true.noise_cov, atol=0.01)
+
+
+def test_era_exact_low_rank_hankel_gives_the_rank():
+    # h_k = 0.5^(k-1): a first-order system whose Hankel matrix has exact zeros
+    model = era(np.r_[0.0, 0.5 ** np.arange(10)])
+    assert model.order == 1
+    np.testing.assert_allclose(model.poles(), [0.5])
+    assert era([0.0, 1.0, 0.5]).order == 1               # the shortest sequence ERA takes

@@ -203,8 +203,14 @@ def _finish(ex, i, order, Ob, W1inv, Z, sv_full, U1, feedthrough):
 
 
 def _gap_order(sv, n_max):
-    r"""The order at the largest drop of :math:`\log_{10}\sigma_k` (k = 1 … n_max)."""
-    s = np.maximum(sv[: n_max + 1], np.finfo(float).tiny * max(sv[0], 1.0))
+    r"""The order at the largest drop of :math:`\log_{10}\sigma_k` (k = 1 … n_max).
+
+    Singular values below σ₁·eps count as σ₁·eps (rounding level).
+    """
+    if n_max < 1 or sv.size < 2:
+        return 1
+    # values below rounding level (σ₁·eps) are all "zero": no drop among them
+    s = np.maximum(sv[: n_max + 1], np.finfo(float).eps * sv[0] + np.finfo(float).tiny)
     return int(np.argmax(np.log10(s[:-1]) - np.log10(s[1:]))) + 1
 
 
