@@ -80,7 +80,7 @@ def _weighted(Lb, method):
 
     With the LQ blocks of [U_f; W_p; Y_f] (W_p = [U_p; Y_p]) the oblique
     projection is :math:`O_i = Y_f/_{U_f}W_p = L_{32}L_{22}^\dagger W_p`
-    (Van Overschee & De Moor 1996, sec. 6.1). Multiplied by the orthogonal
+    (Van Overschee & De Moor 1996, ch. 6). Multiplied by the orthogonal
     Q factors, whose rows are orthonormal (they do not change left singular
     vectors or singular values):
 
@@ -110,7 +110,7 @@ def _bd_x0(ex, A, C, feedthrough):
     Given A and C the outputs are linear in them:
     :math:`y_k = CA^kx_0 + \sum_{\tau<k}(u_\tau^\mathsf T\otimes CA^{k-1-\tau})\operatorname{vec}B
     + (u_k^\mathsf T\otimes I)\operatorname{vec}D`
-    (SLICOT IB01BD / IB01CD's simulation formulation; Verhaegen & Verdult 2007, sec. 9.2.4).
+    (the simulation formulation of SLICOT IB01BD / IB01CD; Verhaegen & Verdult 2007, ch. 9).
     """
     n, m, p = A.shape[0], ex.m, ex.p
     E = len(ex.Y)
@@ -156,7 +156,7 @@ def _kalman_gain(ex, i, M, A, B, C, D):
     r"""K and Σ_e from the residuals of the estimated state sequence and the Riccati equation.
 
     Successive columns of X̂_i are taken as successive states (exact as the
-    horizon grows; Van Overschee & De Moor 1996, sec. 4.3.1, as nfoursid):
+    horizon grows; Van Overschee & De Moor 1996, ch. 4; nfoursid does the same):
     :math:`\rho_w = \hat x_{k+1} - A\hat x_k - Bu_k`,
     :math:`\rho_v = y_k - C\hat x_k - Du_k`, with covariances Q, S, R. The
     steady-state Kalman predictor then solves the filter Riccati equation
@@ -241,7 +241,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     r"""State-space model from input–output data by subspace identification.
 
     The three methods of Van Overschee & De Moor's unifying theorem (1996,
-    thm. 12, sec. 4.3): with i = ``horizon`` block rows of past and future,
+    ch. 4): with i = ``horizon`` block rows of past and future,
     the block-Hankel matrices :math:`U_p, U_f, Y_p, Y_f` (i·m and i·p rows,
     j = N − 2i + 1 columns), :math:`W_p = [U_p; Y_p]` and the oblique
     projection :math:`O_i = Y_f/_{U_f}W_p`, the SVD
@@ -323,8 +323,16 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     M. Verhaegen, P. Dewilde (1992). Subspace model identification, part 1.
     *Int. J. Control* 56(5). :doi:`10.1080/00207179208934363`.
     W. E. Larimore (1990). Canonical variate analysis in identification,
-    filtering and adaptive control. *Proc. 29th IEEE CDC*.
-    :doi:`10.1109/CDC.1990.203665`.
+    filtering and adaptive control. *Proc. 29th IEEE Conference on Decision
+    and Control*, 596–604.
+    P. Van Overschee, B. De Moor (1994). N4SID: subspace algorithms for the
+    identification of combined deterministic-stochastic systems.
+    *Automatica* 30(1), 75–93.
+    M. Verhaegen (1994). Identification of the deterministic part of MIMO
+    state space models given in innovations form from input-output data.
+    *Automatica* 30(1), 61–74.
+    M. Verhaegen, V. Verdult (2007). *Filtering and System Identification:
+    a Least Squares Approach*. Cambridge University Press.
     SLICOT routines IB01AD, IB01BD (slicot.org).
 
     Examples
