@@ -136,3 +136,11 @@ def test_errors_name_the_argument(mimo, kwargs, match):
 def test_too_short_record_refused():
     with pytest.raises(ValueError, match="data"):
         n4sid((np.zeros((30, 2)), np.zeros((30, 2))), 2, horizon=10)
+
+
+def test_time_series_and_mismatched_experiments_refused():
+    y = np.random.default_rng(0).standard_normal((200, 1))
+    with pytest.raises(ValueError, match="input"):
+        n4sid((y, np.zeros((200, 0))), 1)
+    with pytest.raises(ValueError, match=r"data\[1\]"):
+        n4sid([(y, y), (np.hstack([y, y]), y)], 1)

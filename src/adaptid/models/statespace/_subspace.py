@@ -287,7 +287,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     data : IDData, (y, u) tuple of arrays (N, p), (N, m); or a list of them
         The record; a list holds several experiments with the same signals,
         whose Hankel columns are stacked (never across a boundary); each has
-        its own initial state.
+        its own initial state. At least one input (time series: not yet).
     order : int, sequence of int, or None
         n. None: the index of the largest drop of the logarithm of the
         singular values among the first (horizon − 1)·p + 1 (a noise-free
