@@ -160,6 +160,14 @@ def t_breakpoints(outs, jsons):
                     f"{r['ruptures_cpu_s']:.1f}", f"{r['ratio_cpu']:.0f} ×", r["same"])])
 
 
+def t_n4sid(outs, jsons):
+    r = jsons[0]
+    return _table(("N, horizon", "adaptid n4sid, s", "nfoursid, s", "ratio",
+                   "eigenvalue error adaptid / nfoursid"),
+                  [(f"{r['N']}, {r['horizon']}", f"{r['adaptid_s']:.4f}", f"{r['nfoursid_s']:.2f}",
+                    f"{r['ratio']:.0f} ×", f"{r['adaptid_error']:.2e} / {r['nfoursid_error']:.2e}")])
+
+
 def t_pipes(outs, jsons):
     return _pipe_lines(outs[0])
 
@@ -213,6 +221,10 @@ BENCHES = {
                          t_breakpoints, "break dating against ruptures Dynp",
                          smoke=[["--n", "300", "--repeat", "1", "--json", "{json}"]],
                          modules=("ruptures",), tools=()),
+    "n4sid": Bench("bench_n4sid.py", [({}, ["--json", "{json}"])], t_n4sid,
+                   "n4sid against nfoursid (2 in, 2 out, order 4, horizon 10, N = 20 000)",
+                   smoke=[["--n", "1000", "--repeat", "1", "--json", "{json}"]],
+                   modules=("nfoursid", "pandas"), tools=()),
     "codegen": Bench("bench_codegen.py", [({}, [])], t_pipes,
                      "generated C (to_c) against run and the C loop",
                      smoke=[["--quick", "--ns", "2", "--rounds", "1"]]),

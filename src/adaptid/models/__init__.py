@@ -29,6 +29,12 @@ The workflow on a measured record (:class:`IDData`, MATLAB's ``iddata``):
 :func:`select_order` (``arxstruc``/``selstruc``), :func:`compare` (fit %),
 :func:`resid` (residual tests), ``model.summary()`` /
 :func:`model_summary`, :func:`recursive_summary`.
+
+State-space models (subpackage :mod:`adaptid.models.statespace`):
+:func:`n4sid` (subspace identification: N4SID, MOESP, CVA), :func:`era`
+(eigensystem realisation from Markov parameters), :func:`okid`
+(observer/Kalman filter identification), all returning a
+:class:`StateSpaceModel`.
 """
 
 from __future__ import annotations
@@ -51,6 +57,7 @@ from ._polymodel import NotFittedError
 from ._regression import Regression
 from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
+from .statespace import StateSpaceModel, era, n4sid, okid
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
@@ -84,6 +91,10 @@ __all__ = [
     "OrderSelection",
     "model_summary",
     "recursive_summary",
+    "StateSpaceModel",
+    "n4sid",
+    "era",
+    "okid",
 ]
 
 
