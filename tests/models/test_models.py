@@ -394,7 +394,9 @@ def test_public_index():
                 "DCMotorRegressors", "ARX", "ARMAX", "OE", "AR", "ARMA", "BJ", "NotFittedError",
                 # issue 15: the identification workflow
                 "IDData", "compare", "resid", "select_order", "CompareResult", "ResidResult",
-                "OrderSelection", "model_summary", "recursive_summary"}
+                "OrderSelection", "model_summary", "recursive_summary",
+                # issue 35: nonlinear models
+                "NARX"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

@@ -25,6 +25,11 @@ aic / fpe / cov / to_control):
 * :class:`AR`, :class:`ARMA` — time series (least squares; Hannan–Rissanen
   and prediction errors; recursive: RLS / RELS).
 
+Nonlinear models linear in the parameters (subpackage :mod:`adaptid.models.nonlinear`):
+
+* :class:`NARX` — polynomial NARX, terms selected by FROLS (error reduction
+  ratio) and an information criterion.
+
 The workflow on a measured record (:class:`IDData`, MATLAB's ``iddata``):
 :func:`select_order` (``arxstruc``/``selstruc``), :func:`compare` (fit %),
 :func:`resid` (residual tests), ``model.summary()`` /
@@ -51,6 +56,7 @@ from ._polymodel import NotFittedError
 from ._regression import Regression
 from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
+from .nonlinear import NARX
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
@@ -75,6 +81,7 @@ __all__ = [
     "AR",
     "ARMA",
     "BJ",
+    "NARX",
     "NotFittedError",
     "compare",
     "resid",
