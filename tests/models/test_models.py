@@ -396,7 +396,7 @@ def test_public_index():
                 "IDData", "compare", "resid", "select_order", "CompareResult", "ResidResult",
                 "OrderSelection", "model_summary", "recursive_summary",
                 # issue 35: nonlinear models
-                "NARX"}
+                "NARX", "stlsq", "SINDy"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

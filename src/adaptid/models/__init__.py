@@ -28,7 +28,8 @@ aic / fpe / cov / to_control):
 Nonlinear models linear in the parameters (subpackage :mod:`adaptid.models.nonlinear`):
 
 * :class:`NARX` — polynomial NARX, terms selected by FROLS (error reduction
-  ratio) and an information criterion.
+  ratio) and an information criterion;
+* :func:`stlsq`, :class:`SINDy` — sparse regression of dynamics (SINDy).
 
 The workflow on a measured record (:class:`IDData`, MATLAB's ``iddata``):
 :func:`select_order` (``arxstruc``/``selstruc``), :func:`compare` (fit %),
@@ -56,7 +57,7 @@ from ._polymodel import NotFittedError
 from ._regression import Regression
 from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
-from .nonlinear import NARX
+from .nonlinear import NARX, SINDy, stlsq
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
@@ -82,6 +83,8 @@ __all__ = [
     "ARMA",
     "BJ",
     "NARX",
+    "stlsq",
+    "SINDy",
     "NotFittedError",
     "compare",
     "resid",
