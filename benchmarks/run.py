@@ -160,6 +160,19 @@ def t_breakpoints(outs, jsons):
                     f"{r['ruptures_cpu_s']:.1f}", f"{r['ratio_cpu']:.0f} ×", r["same"])])
 
 
+def t_frols(outs, jsons):
+    r = jsons[0]
+    rows = [(f"{r['N']}, {r['candidates']}, {r['terms']}", f"{r['adaptid_s']:.3f}",
+             f"{r['sysidentpy_s']:.2f}", f"{r['ratio']:.0f} × (CPU {r['ratio_cpu']:.0f} ×)",
+             r["same_terms"])]
+    if "large" in r:
+        g = r["large"]
+        rows.append((f"{g['N']}, {g['candidates']}, {g['terms']}", f"{g['adaptid_s']:.3f}",
+                     "–", "–", "–"))
+    return _table(("N, candidates, terms", "adaptid NARX.fit, s", "sysidentpy FROLS.fit, s",
+                   "ratio", "same terms"), rows)
+
+
 def t_pipes(outs, jsons):
     return _pipe_lines(outs[0])
 
@@ -213,6 +226,10 @@ BENCHES = {
                          t_breakpoints, "break dating against ruptures Dynp",
                          smoke=[["--n", "300", "--repeat", "1", "--json", "{json}"]],
                          modules=("ruptures",), tools=()),
+    "frols": Bench("bench_frols.py", [({}, ["--large", "--json", "{json}"])], t_frols,
+                   "NARX structure selection (FROLS) against sysidentpy",
+                   smoke=[["--n", "400", "--repeat", "1", "--json", "{json}"]],
+                   modules=("sysidentpy",), tools=()),
     "codegen": Bench("bench_codegen.py", [({}, [])], t_pipes,
                      "generated C (to_c) against run and the C loop",
                      smoke=[["--quick", "--ns", "2", "--rounds", "1"]]),

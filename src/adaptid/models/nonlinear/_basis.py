@@ -83,11 +83,28 @@ class MonomialBasis:
         self._Q = self._prefix_products(slice(0, N)) if self._rows == N else None
 
     def _prefix_products(self, rows):
-        Xt = self.Xt[rows]
-        Q = np.ones((Xt.shape[0], self._prefixes.shape[0]))
-        for c in range(self._prefixes.shape[1]):
-            Q *= Xt[:, self._prefixes[:, c]]
-        return Q
+        """Qᵀ on ``rows``, shape (n_prefixes, rows): level by level, each prefix's
+        children are one broadcast product.
+
+        In lexicographic order the prefixes extending a shorter prefix c are
+        contiguous, ordered by their last index i ≥ last(c).
+        """
+        XT = np.ascontiguousarray(self.Xt[rows].T)
+        n1 = XT.shape[0]
+        QT = np.ones((1, XT.shape[1]))
+        last = np.zeros(1, dtype=np.intp)
+        for _ in range(self._prefixes.shape[1]):
+            widths = n1 - last
+            nxt = np.empty((int(widths.sum()), XT.shape[1]))
+            nlast = np.empty(nxt.shape[0], dtype=np.intp)
+            o = 0
+            for c in range(QT.shape[0]):
+                b, w = int(last[c]), int(widths[c])
+                np.multiply(QT[c], XT[b:], out=nxt[o:o + w])
+                nlast[o:o + w] = np.arange(b, n1)
+                o += w
+            QT, last = nxt, nlast
+        return QT
 
     def _blocks(self):
         if self._Q is not None:
@@ -100,16 +117,15 @@ class MonomialBasis:
     def project(self, w):
         r"""All :math:`p_j^T w`, shape (M,), for w of shape (N,)."""
         G = np.zeros((self._prefixes.shape[0], self.n + 1))
-        for rows, Q in self._blocks():
-            G += Q.T @ (w[rows, None] * self.Xt[rows])
+        for rows, QT in self._blocks():
+            G += QT @ (w[rows, None] * self.Xt[rows])
         return G.ravel()[self._flat]
 
     def sq_norms(self):
         r"""All :math:`\lVert p_j\rVert^2`, shape (M,)."""
         G = np.zeros((self._prefixes.shape[0], self.n + 1))
-        for rows, Q in self._blocks():
-            X2 = self.Xt[rows] ** 2
-            G += (Q * Q).T @ X2
+        for rows, QT in self._blocks():
+            G += (QT * QT) @ (self.Xt[rows] ** 2)
         return G.ravel()[self._flat]
 
     def columns(self, js):
