@@ -268,3 +268,64 @@ def test_errors_name_the_argument():
     from adaptid.models import NotFittedError
     with pytest.raises(NotFittedError):
         NARX(1, 1).simulate(u[:, 0])
+
+
+# --------------------------------------------------------------------------- NARMAX
+def narmax_system(N=4000, seed=5, c=0.6):
+    """y(k) = 0.5 y(k-1) + u(k-1) - 0.3 u(k-1) y(k-1) + e(k) + c e(k-1)."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1, 1, N)
+    e = 0.1 * rng.standard_normal(N)
+    y = np.zeros(N)
+    for k in range(1, N):
+        y[k] = 0.5 * y[k - 1] + u[k - 1] - 0.3 * u[k - 1] * y[k - 1] + e[k] + c * e[k - 1]
+    return y, u
+
+
+def test_narmax_noise_terms_by_extended_least_squares():
+    y, u = narmax_system()
+    m = NARX(1, 1, 2, n_terms=3, noise_lags=1).fit(y, u)
+    assert m.terms[:3] == ("u(k-1)", "y(k-1)", "u(k-1)*y(k-1)") and m.terms[3] == "e(k-1)"
+    assert m.result.n_process == 3 and m.err.size == 3 and m.result.iterations > 1
+    # estimates near the truth (4000 samples, sigma_e = 0.1: a few standard errors)
+    np.testing.assert_allclose(m.theta, [1.0, 0.5, -0.3, 0.6], atol=4 * m.stderr.max() + 0.01)
+    # the least squares without the noise term is biased on y(k-1)
+    plain = NARX(1, 1, 2, n_terms=3).fit(y, u)
+    assert abs(plain.theta[1] - 0.5) > abs(m.theta[1] - 0.5)
+    # the one-step predictor: eps(t) = y(t) - process(t) - c eps(t-1), eps = 0 before row 1
+    th = dict(zip(m.terms, m.theta))
+    eps = np.zeros(y.size)
+    yhat = y.copy()
+    for t in range(1, y.size):
+        proc = th["u(k-1)"] * u[t - 1] + th["y(k-1)"] * y[t - 1] \
+            + th["u(k-1)*y(k-1)"] * u[t - 1] * y[t - 1]
+        yhat[t] = proc + th["e(k-1)"] * eps[t - 1]
+        eps[t] = y[t] - yhat[t]
+    np.testing.assert_allclose(m.predict(y, u, k=1), yhat, atol=1e-12)
+    # at convergence the fit's residuals are these one-step errors
+    np.testing.assert_allclose(m.residuals, eps[1:], atol=1e-7)
+    # beyond the noise lags the k-step prediction is the process part run from the data
+    np.testing.assert_allclose(m.predict(y, u, k=y.size), m.simulate(u, y0=y), atol=1e-12)
+    # and the noise term whitens the one-step errors
+    from adaptid.models import resid
+    assert resid((y, u), m).white and not resid((y, u), plain).white
+    s = str(m.summary())
+    assert "e(k-1)" in s and "noise terms" in s
+    assert "e(k-1)" in m.to_equations()
+
+
+def test_narmax_two_step_prediction_by_hand():
+    y, u = narmax_system(N=300)
+    m = NARX(1, 1, 2, n_terms=3, noise_lags=2).fit(y, u)
+    th = dict(zip(m.terms, m.theta))
+    eps = y - m.predict(y, u, k=1)
+
+    def proc(yp, t):
+        return th["u(k-1)"] * u[t - 1] + th["y(k-1)"] * yp + th["u(k-1)*y(k-1)"] * u[t - 1] * yp
+
+    want = y.copy()
+    for t in range(2, y.size):
+        y1 = proc(y[t - 2], t - 1) + th["e(k-1)"] * eps[t - 2] + th["e(k-2)"] * (
+            eps[t - 3] if t >= 3 else 0.0)
+        want[t] = proc(y1, t) + th["e(k-2)"] * eps[t - 2]
+    np.testing.assert_allclose(m.predict(y, u, k=2)[2:], want[2:], atol=1e-12)

@@ -40,6 +40,14 @@ class _ERRSummary(Summary):
         return pd.DataFrame(self.params, index=list(self.names), columns=cols)
 
 
+def _lagged(e, q):
+    """[e(k-1) … e(k-q)] of a series, zeros before its start; shape (len(e), q)."""
+    E = np.zeros((e.size, q))
+    for j in range(1, q + 1):
+        E[j:, j - 1] = e[:-j]
+    return E
+
+
 def _term_name(combo, base_names):
     """``"u1(k-2)*y1(k-1)"``: factors by descending base index, powers as ``^p``."""
     idx = [int(i) for i in combo if i > 0]
@@ -62,14 +70,17 @@ class NARXResult:
         The output's name.
     terms : tuple of str
         The selected terms in the order FROLS chose them.
-    combos : ndarray of intp, shape (d, D)
-        Their index tuples into :math:`[1, x_1, …, x_n]` (the base variables).
+    combos : ndarray of intp, shape (d_p, D)
+        The process terms' index tuples into :math:`[1, x_1, …, x_n]` (the
+        base variables).
     theta, stderr, tvalues, pvalues : ndarray, shape (d,)
-        Least squares on the selected terms (:func:`adaptid.lstsq`).
+        Least squares on the selected terms (:func:`adaptid.lstsq`), the
+        process terms then, with ``noise_lags`` q, the noise terms
+        e(k−1) … e(k−q) (d = d_p + q).
     cov : ndarray, shape (d, d)
         :math:`\hat\sigma^2 (\Phi^T\Phi)^{-1}`, :math:`\hat\sigma^2 = \mathrm{SSR}/(N - d)`.
-    err : ndarray, shape (d,)
-        Error reduction ratio of each term (its share of :math:`y^Ty`).
+    err : ndarray, shape (d_p,)
+        Error reduction ratio of each process term (its share of :math:`y^Ty`).
     residuals : ndarray, shape (N,)
         One-step prediction errors of the fit's rows.
     path : dict or None
@@ -91,6 +102,13 @@ class NARXResult:
     lsq: object = field(repr=False)
     criterion: str | None = None
     _model: object = field(default=None, repr=False)
+    noise_lags: int = 0
+    iterations: int = 0
+
+    @property
+    def n_process(self):
+        """Number of process terms d_p (the rest of θ are noise terms)."""
+        return self.combos.shape[0]
 
     @property
     def stderr(self):
@@ -138,11 +156,13 @@ class NARXResult:
         n, d = r.size, self.theta.size
         ssr = float(r @ r)
         rows = parameter_rows(self.theta, self.stderr, n - d, alpha)
-        rows = np.column_stack([rows, self.err])
+        rows = np.column_stack([rows, np.concatenate([self.err,
+                                                      np.full(self.noise_lags, np.nan)])])
         ic = self.information()
         st = {"N": n, "candidates": self.n_candidates, "terms": d,
               "selection": (f"FROLS, {self.criterion} minimum over the path"
                             if self.criterion else "FROLS, n_terms given"),
+              "noise terms": self.noise_lags,
               "sum of ERR": float(np.sum(self.err)),
               "sigma^2": ssr / (n - d) if n > d else float("nan"), "loss V": ssr / n,
               "AIC": ic["aic"], "BIC": ic["bic"], "FPE": ic["fpe"], "LILC": ic["lilc"]}
@@ -173,8 +193,9 @@ class NARXResult:
             import pandas as pd
         except ImportError as err:  # pragma: no cover - depends on the extra
             raise ImportError("to_frame needs pandas: pip install 'adaptid[pandas]'") from err
+        err = np.concatenate([self.err, np.full(self.noise_lags, np.nan)])
         return pd.DataFrame({"estimate": self.theta, "stderr": self.stderr, "t": self.tvalues,
-                             "P>|t|": self.pvalues, "ERR": self.err},
+                             "P>|t|": self.pvalues, "ERR": err},
                             index=pd.Index(list(self.terms), name="term"))
 
     def plot(self, *, fig=None):
@@ -188,7 +209,7 @@ class NARXResult:
         fig = plt.figure(figsize=(9, 3.5)) if fig is None else fig
         ax1, ax2 = fig.subplots(1, 2)
         pos = np.arange(len(self.terms))
-        ax1.barh(pos, self.err)
+        ax1.barh(pos[: self.err.size], self.err)
         ax1.set_yticks(pos, labels=list(self.terms))
         ax1.invert_yaxis()
         ax1.set_xlabel("ERR")
@@ -259,6 +280,15 @@ class NARX:
     max_terms : int
         Longest FROLS path searched by the criterion (default 30; capped
         at the number of candidates and N − 1).
+    noise_lags : int
+        q ≥ 0 (default 0). NARMAX: after the selection of the process terms,
+        the linear noise terms e(k−1) … e(k−q) are added and θ is
+        re-estimated by extended least squares — the regression on the
+        process terms and the lagged residuals of the previous fit, iterated
+        until θ changes by less than 1e-9 relative (at most 100 times;
+        residuals before the first row are 0). ``n_terms`` counts the
+        process terms only. Simulation ignores the noise terms; k-step
+        predictions use the one-step errors up to t − k.
 
     Attributes
     ----------
@@ -301,7 +331,7 @@ class NARX:
     """
 
     def __init__(self, ylag, ulag, degree=2, *, nk=1, selection="frols", n_terms=None,
-                 criterion="aic", max_terms=30):
+                 criterion="aic", max_terms=30, noise_lags=0):
         self.ylag = check_int(ylag, "ylag", low=0)
         self.ulag = check_int(ulag, "ulag", low=0)
         self.degree = check_int(degree, "degree", low=1)
@@ -310,6 +340,7 @@ class NARX:
         self.n_terms = None if n_terms is None else check_int(n_terms, "n_terms", low=1)
         self.criterion = check_choice(criterion, "criterion", CRITERIA)
         self.max_terms = check_int(max_terms, "max_terms", low=1)
+        self.noise_lags = check_int(noise_lags, "noise_lags", low=0)
         self.results = None
         self._fit_record = None
 
@@ -412,18 +443,45 @@ class NARX:
                 info = dict(info, ssr=path.ssr, chosen=d)
             sel = path.selected[:d]
             Phi = basis.columns(sel)
-            res = lstsq(Phi, y)
+            res, iters = lstsq(Phi, y), 0
+            if self.noise_lags:
+                res, iters = self._els(Phi, y, res)
             combos = basis.combos[sel]
+            e_name = "e" if self._p == 1 else f"e_{self.y_names[o]}"
             results.append(NARXResult(
-                output=self.y_names[o], terms=tuple(_term_name(c, names) for c in combos),
+                output=self.y_names[o],
+                terms=tuple(_term_name(c, names) for c in combos)
+                + tuple(f"{e_name}(k-{j})" for j in range(1, self.noise_lags + 1)),
                 combos=combos, theta=np.asarray(res.theta, dtype=np.float64).reshape(-1),
                 cov=np.asarray(res.cov), err=path.err[:d], residuals=np.asarray(res.residuals),
                 path=info, n_candidates=M, lsq=res,
-                criterion=None if info is None else self.criterion, _model=self))
+                criterion=None if info is None else self.criterion, _model=self,
+                noise_lags=self.noise_lags, iterations=iters))
         self.results = tuple(results)
         self.index = rows
         self._fit_record = (Y, U)
         return self
+
+    def _els(self, Phi, y, res, *, max_iter=100, rtol=1e-9):
+        """Extended least squares on [Φ, e(k-1) … e(k-q)], the residuals of the previous fit."""
+        import warnings
+
+        from ..._exceptions import AdaptidWarning
+        from ..._lstsq import lstsq
+
+        q = self.noise_lags
+        e = np.asarray(res.residuals)
+        theta = None
+        for it in range(1, max_iter + 1):
+            E = _lagged(e, q)
+            res = lstsq(np.hstack([Phi, E]), y)
+            new = np.asarray(res.theta).reshape(-1)
+            if theta is not None and np.linalg.norm(new - theta) <= rtol * (1 + np.linalg.norm(new)):
+                return res, it
+            theta, e = new, np.asarray(res.residuals)
+        warnings.warn(f"extended least squares did not converge in {max_iter} iterations",
+                      AdaptidWarning, stacklevel=3)
+        return res, max_iter
 
     # ----------------------------------------------------------- attributes
     def _per_output(self, attr):
@@ -488,6 +546,10 @@ class NARX:
         Each prediction runs the model k steps from the measured outputs up
         to t − k (the inputs are known); the first L samples are the
         measured ones. Computed for all t at once, k vectorised passes.
+        With noise terms (``noise_lags``) the one-step errors ε solve
+        :math:`C(q)\,\varepsilon = y - \text{process part}`
+        (:math:`C = 1 + c_1q^{-1} + …`, ε = 0 before row L), and
+        e(t − j) is ε(t − j) when j ≥ k and its mean 0 otherwise.
 
         Parameters
         ----------
@@ -505,12 +567,29 @@ class NARX:
         k = check_int(k, "k", low=1)
         N, L = Y.shape[0], self.max_lag
         rows = np.arange(L, N)
+        Xt1 = self._Xt(self._base(lambda j: Y, U, rows))
+        eps = []   # one-step errors of the NARMAX terms: C(q) ε = y − process part
+        for r in self.results:
+            if r.noise_lags:
+                from scipy.signal import lfilter
+
+                c = r.theta[r.n_process:]
+                resid = Y[L:, list(self.y_names).index(r.output)] - evaluate(
+                    Xt1, r.combos) @ r.theta[: r.n_process]
+                eps.append(lfilter([1.0], np.concatenate([[1.0], c]), resid))
+            else:
+                eps.append(None)
         preds = [Y]
         for h in range(1, k + 1):
-            Xt = self._Xt(self._base(lambda j, h=h: preds[max(h - j, 0)], U, rows))
+            Xt = Xt1 if h == 1 else self._Xt(self._base(lambda j, h=h: preds[max(h - j, 0)],
+                                                          U, rows))
             Yh = Y.copy()
             for o, r in enumerate(self.results):
-                Yh[L:, o] = evaluate(Xt, r.combos) @ r.theta
+                Yh[L:, o] = evaluate(Xt, r.combos) @ r.theta[: r.n_process]
+                if eps[o] is not None:  # e(t - j) is known for j >= h, else its mean 0
+                    E = _lagged(eps[o], r.noise_lags)
+                    E[:, : h - 1] = 0.0
+                    Yh[L:, o] += E @ r.theta[r.n_process:]
             preds.append(Yh)
         return self._out(preds[k])
 
@@ -567,7 +646,7 @@ class NARX:
         Xu = np.column_stack([np.ones(N)] + ([U[np.arange(N) - j, i] for i, j in ub]
                                                if ub else []))
         combos = [r.combos for r in self.results]
-        thetas = [r.theta for r in self.results]
+        thetas = [r.theta[: r.n_process] for r in self.results]
         ny = yi.size
         xt = np.empty(1 + ny + ui.size)
         with np.errstate(over="ignore", invalid="ignore"):
@@ -630,5 +709,7 @@ class NARX:
     def __repr__(self):
         state = "fitted" if self.results is not None else "not fitted"
         sel = f"n_terms={self.n_terms}" if self.n_terms else f"criterion={self.criterion!r}"
+        if self.noise_lags:
+            sel += f", noise_lags={self.noise_lags}"
         return (f"NARX(ylag={self.ylag}, ulag={self.ulag}, degree={self.degree}, nk={self.nk}, "
                 f"{sel}) [{state}]")
