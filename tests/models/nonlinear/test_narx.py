@@ -329,3 +329,24 @@ def test_narmax_two_step_prediction_by_hand():
             eps[t - 3] if t >= 3 else 0.0)
         want[t] = proc(y1, t) + th["e(k-2)"] * eps[t - 2]
     np.testing.assert_allclose(m.predict(y, u, k=2)[2:], want[2:], atol=1e-12)
+
+
+def test_several_experiments_are_stacked_without_crossing_lags():
+    y1, u1 = miso_system(N=300, seed=1)
+    y2, u2 = miso_system(N=250, seed=2)
+    m = NARX(2, 2, 2, n_terms=5).fit([IDData(y1, u1), IDData(y2, u2)])
+    assert set(m.terms) == set(TRUE)
+    np.testing.assert_allclose([TRUE[t] for t in m.terms], m.theta, atol=1e-10)
+    assert m.residuals.size == 298 + 248
+    np.testing.assert_array_equal(m.index, np.r_[np.arange(2, 300), np.arange(2, 250)])
+    # the stacked fit is the least squares on both records' rows
+    one = NARX(2, 2, 2, n_terms=5).fit(IDData(y1, u1))
+    assert "fit % (simulation, estimation)" not in m.summary().stats
+    assert "fit % (simulation, estimation)" in one.summary().stats
+    # NARMAX: the lagged residuals restart with each record
+    yn1, un1 = narmax_system(N=1500, seed=1)
+    yn2, un2 = narmax_system(N=1500, seed=2)
+    mm = NARX(1, 1, 2, n_terms=3, noise_lags=1).fit([IDData(yn1, un1), IDData(yn2, un2)])
+    np.testing.assert_allclose(mm.theta, [1.0, 0.5, -0.3, 0.6], atol=0.06)
+    with pytest.raises(ValueError, match=r"data\[1\] must be a record with 1 output"):
+        NARX(1, 1).fit([IDData(y1, u1), IDData(np.c_[y2, y2], u2)])

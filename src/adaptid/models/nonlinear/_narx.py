@@ -299,7 +299,7 @@ class NARX:
     results : tuple of NARXResult
         One per output (``result`` is the first).
     index : ndarray, shape (N - L,)
-        The fit's rows.
+        The fit's rows (of each experiment in turn, for several).
     max_lag : int
         L.
 
@@ -351,6 +351,17 @@ class NARX:
             if u is not None:
                 raise param_error("u", "None when data is an IDData", "<an array>", exc=TypeError)
             return data
+        if isinstance(data, (list, tuple)) and data and all(isinstance(d, IDData) for d in data):
+            if u is not None:
+                raise param_error("u", "None when data are IDData records", "<an array>",
+                                  exc=TypeError)
+            first = data[0]
+            for i, d in enumerate(data[1:], 1):
+                if (d.n_outputs, d.n_inputs) != (first.n_outputs, first.n_inputs):
+                    raise param_error(f"data[{i}]", f"a record with {first.n_outputs} output(s) "
+                                      f"and {first.n_inputs} input(s) as data[0]",
+                                      f"<{d.n_outputs} outputs, {d.n_inputs} inputs>")
+            return list(data)
         if isinstance(data, tuple) and u is None:
             if len(data) != 2:
                 raise param_error("data", "an IDData or a (y, u) pair", f"<tuple of {len(data)}>",
@@ -395,9 +406,13 @@ class NARX:
 
         Parameters
         ----------
-        data : IDData, (y, u) tuple, or y (array_like, shape (N,) or (N, p))
+        data : IDData, list of IDData, (y, u) tuple, or y (array_like, shape (N,) or (N, p))
             The record; with an array, ``u`` gives the inputs (shape (N,)
-            or (N, m), or None for a time series).
+            or (N, m), or None for a time series). Several experiments (a
+            list of records with the same signals): the rows k = L … N_i − 1
+            of each are stacked (no lag reaches across records; the names
+            and ``dt`` are the first record's; the summary then gives no
+            fit % on the estimation data).
         u : array_like, optional
 
         Returns
@@ -406,25 +421,36 @@ class NARX:
         """
         from ..._lstsq import lstsq
 
-        rec = self._record(data, u)
-        Y, U = rec.outputs, rec.inputs
-        N, self._p = Y.shape
-        self._m = U.shape[1]
+        recs = self._record(data, u)
+        recs = recs if isinstance(recs, list) else [recs]
+        rec = recs[0]
+        self._p, self._m = rec.n_outputs, rec.n_inputs
         self.y_names, self.u_names, self.dt = rec.y_names, rec.u_names, rec.dt
         n_base = self._p * self.ylag + self._m * self.ulag
         if n_base == 0:
             raise param_error("ylag + ulag", ">= 1 lagged variable for the data's signals", 0)
         L = self.max_lag
-        rows = np.arange(L, N)
-        basis = MonomialBasis(self._base(lambda j: Y, U, rows), self.degree)
+        blocks, targets, index, lengths = [], [], [], []
+        for i, r in enumerate(recs):
+            rows_i = np.arange(L, len(r))
+            if rows_i.size < 1:
+                raise param_error("data" if len(recs) == 1 else f"data[{i}]",
+                                  f"longer than the largest lag L={L}", f"<{len(r)} samples>")
+            blocks.append(self._base(lambda j, r=r: r.outputs, r.inputs, rows_i))
+            targets.append(r.outputs[rows_i])
+            index.append(rows_i)
+            lengths.append(rows_i.size)
+        Yrows = np.vstack(targets)
+        rows = np.concatenate(index)
+        basis = MonomialBasis(np.vstack(blocks), self.degree)
         M = basis.M
         if rows.size <= 2:
             raise param_error("data", f"longer than the largest lag L={L} plus 2 samples",
-                              f"<{N} samples>")
+                              f"<{len(rec)} samples>")
         names = self._base_names()
         results = []
         for o in range(self._p):
-            y = np.ascontiguousarray(Y[rows, o])
+            y = np.ascontiguousarray(Yrows[:, o])
             yty = float(y @ y)
             if not yty > 0:
                 raise param_error("data", "outputs that are not all zero on the fitted rows",
@@ -445,7 +471,7 @@ class NARX:
             Phi = basis.columns(sel)
             res, iters = lstsq(Phi, y), 0
             if self.noise_lags:
-                res, iters = self._els(Phi, y, res)
+                res, iters = self._els(Phi, y, res, lengths)
             combos = basis.combos[sel]
             e_name = "e" if self._p == 1 else f"e_{self.y_names[o]}"
             results.append(NARXResult(
@@ -459,10 +485,10 @@ class NARX:
                 noise_lags=self.noise_lags, iterations=iters))
         self.results = tuple(results)
         self.index = rows
-        self._fit_record = (Y, U)
+        self._fit_record = (rec.outputs, rec.inputs) if len(recs) == 1 else None
         return self
 
-    def _els(self, Phi, y, res, *, max_iter=100, rtol=1e-9):
+    def _els(self, Phi, y, res, lengths, *, max_iter=100, rtol=1e-9):
         """Extended least squares on [Φ, e(k-1) … e(k-q)], the residuals of the previous fit."""
         import warnings
 
@@ -473,7 +499,7 @@ class NARX:
         e = np.asarray(res.residuals)
         theta = None
         for it in range(1, max_iter + 1):
-            E = _lagged(e, q)
+            E = np.vstack([_lagged(part, q) for part in np.split(e, np.cumsum(lengths)[:-1])])
             res = lstsq(np.hstack([Phi, E]), y)
             new = np.asarray(res.theta).reshape(-1)
             if theta is not None and np.linalg.norm(new - theta) <= rtol * (1 + np.linalg.norm(new)):
