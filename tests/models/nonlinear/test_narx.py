@@ -350,3 +350,17 @@ def test_several_experiments_are_stacked_without_crossing_lags():
     np.testing.assert_allclose(mm.theta, [1.0, 0.5, -0.3, 0.6], atol=0.06)
     with pytest.raises(ValueError, match=r"data\[1\] must be a record with 1 output"):
         NARX(1, 1).fit([IDData(y1, u1), IDData(np.c_[y2, y2], u2)])
+
+
+def test_fewer_independent_candidates_than_n_terms_warns():
+    from adaptid._exceptions import AdaptidWarning
+
+    rng = np.random.default_rng(0)
+    u = np.sign(rng.standard_normal(200))          # binary: u^2 is the constant
+    y = np.zeros(200)
+    for k in range(1, 200):
+        y[k] = 0.5 * y[k - 1] + u[k - 1]
+    with pytest.warns(AdaptidWarning, match="only 5 of n_terms=6"):
+        m = NARX(1, 1, 2, n_terms=6).fit(y, u)
+    assert len(m.terms) == 5
+    assert not {"1", "u(k-1)^2"} <= set(m.terms)

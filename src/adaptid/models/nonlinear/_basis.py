@@ -125,7 +125,11 @@ class MonomialBasis:
         r"""All :math:`\lVert p_j\rVert^2`, shape (M,)."""
         G = np.zeros((self._prefixes.shape[0], self.n + 1))
         for rows, QT in self._blocks():
-            G += (QT * QT) @ (self.Xt[rows] ** 2)
+            X2 = self.Xt[rows] ** 2
+            step = 4096  # squares in slices: no second copy of Q
+            for s0 in range(0, QT.shape[1], step):
+                Qs = QT[:, s0:s0 + step]
+                G += (Qs * Qs) @ X2[s0:s0 + step]
         return G.ravel()[self._flat]
 
     def columns(self, js):

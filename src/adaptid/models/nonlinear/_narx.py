@@ -461,6 +461,14 @@ class NARX:
                                       "and the rows allow)", self.n_terms)
                 path = frols(basis, y, self.n_terms)
                 d, info = path.selected.size, None
+                if d < self.n_terms:
+                    import warnings
+
+                    from ..._exceptions import AdaptidWarning
+
+                    warnings.warn(f"only {d} of n_terms={self.n_terms} candidates of output "
+                                  f"{self.y_names[o]} are linearly independent on the data",
+                                  AdaptidWarning, stacklevel=2)
             else:
                 cap = min(self.max_terms, M, rows.size - 1)
                 path = frols(basis, y, cap)
@@ -635,8 +643,9 @@ class NARX:
 
         Parameters
         ----------
-        u : array_like, shape (N,) or (N, m); or IDData (its inputs and,
-            unless ``y0`` is given, its first L outputs)
+        u : array_like, shape (N,) or (N, m); IDData (its inputs and,
+            unless ``y0`` is given, its first L outputs); or, for a model
+            without inputs, the number of samples N
         y0 : array_like, shape (≥ L,) or (≥ L, p), optional
             Initial outputs (the first L rows are used, e.g. the measured
             record); default zeros.
