@@ -364,3 +364,16 @@ def test_fewer_independent_candidates_than_n_terms_warns():
         m = NARX(1, 1, 2, n_terms=6).fit(y, u)
     assert len(m.terms) == 5
     assert not {"1", "u(k-1)^2"} <= set(m.terms)
+
+
+def test_row_blocks_give_the_same_fit(monkeypatch):
+    """A prefix-product matrix over the memory budget is rebuilt in row blocks."""
+    import adaptid.models.nonlinear._basis as basis
+
+    y, u = miso_system(noise=0.05, N=700)
+    full = NARX(3, 3, 3, n_terms=8).fit(y, u)
+    monkeypatch.setattr(basis, "Q_BUDGET", 64 * 1024)
+    blocked = NARX(3, 3, 3, n_terms=8).fit(y, u)
+    assert blocked.terms == full.terms
+    np.testing.assert_allclose(blocked.err, full.err, rtol=1e-12)
+    np.testing.assert_allclose(blocked.theta, full.theta, rtol=1e-12)
