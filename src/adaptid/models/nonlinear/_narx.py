@@ -97,6 +97,17 @@ class NARX:
     max_lag : int
         L.
 
+    Notes
+    -----
+    The error reduction ratio of a candidate p after the chosen terms is
+    :math:`(\tilde p^Ty)^2/(\tilde p^T\tilde p\; y^Ty)`, :math:`\tilde p`
+    its part orthogonal to them (y is not centred, as in sysidentpy with
+    ``order_selection=False``, whose terms, ERR and θ these match). A
+    candidate whose orthogonal part keeps less than 1e-10 of its squared
+    norm counts as dependent and is not chosen; losses below 1e-20·yᵀy
+    count as equal in the criteria, so that noise-free data give the exact
+    model rather than round-off terms.
+
     References
     ----------
     .. [1] S. A. Billings, S. Chen and M. J. Korenberg, "Identification of
