@@ -168,6 +168,19 @@ def t_n4sid(outs, jsons):
                     f"{r['ratio']:.0f} ×", f"{r['adaptid_error']:.2e} / {r['nfoursid_error']:.2e}")])
 
 
+def t_frols(outs, jsons):
+    r = jsons[0]
+    rows = [(f"{r['N']}, {r['candidates']}, {r['terms']}", f"{r['adaptid_s']:.3f}",
+             f"{r['sysidentpy_s']:.2f}", f"{r['ratio']:.0f} × (CPU {r['ratio_cpu']:.0f} ×)",
+             r["same_terms"])]
+    if "large" in r:
+        g = r["large"]
+        rows.append((f"{g['N']}, {g['candidates']}, {g['terms']}", f"{g['adaptid_s']:.3f}",
+                     "–", "–", "–"))
+    return _table(("N, candidates, terms", "adaptid NARX.fit, s", "sysidentpy FROLS.fit, s",
+                   "ratio", "same terms"), rows)
+
+
 def t_pipes(outs, jsons):
     return _pipe_lines(outs[0])
 
@@ -225,6 +238,12 @@ BENCHES = {
                    "n4sid against nfoursid (2 in, 2 out, order 4, horizon 10, N = 20 000)",
                    smoke=[["--n", "1000", "--repeat", "1", "--json", "{json}"]],
                    modules=("nfoursid", "pandas"), tools=()),
+
+
+    "frols": Bench("bench_frols.py", [({}, ["--large", "--json", "{json}"])], t_frols,
+                   "NARX structure selection (FROLS) against sysidentpy",
+                   smoke=[["--n", "400", "--repeat", "1", "--json", "{json}"]],
+                   modules=("sysidentpy",), tools=()),
     "codegen": Bench("bench_codegen.py", [({}, [])], t_pipes,
                      "generated C (to_c) against run and the C loop",
                      smoke=[["--quick", "--ns", "2", "--rounds", "1"]]),

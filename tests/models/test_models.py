@@ -396,7 +396,9 @@ def test_public_index():
                 "IDData", "compare", "resid", "select_order", "CompareResult", "ResidResult",
                 "OrderSelection", "model_summary", "recursive_summary",
                 # issue 34: state-space models
-                "StateSpaceModel", "n4sid", "era", "okid"}
+                "StateSpaceModel", "n4sid", "era", "okid",
+                # issue 35: nonlinear models
+                "NARX", "stlsq", "SINDy"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

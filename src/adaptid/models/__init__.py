@@ -25,6 +25,12 @@ aic / fpe / cov / to_control):
 * :class:`AR`, :class:`ARMA` — time series (least squares; Hannan–Rissanen
   and prediction errors; recursive: RLS / RELS).
 
+Nonlinear models linear in the parameters (subpackage :mod:`adaptid.models.nonlinear`):
+
+* :class:`NARX` — polynomial NARX, terms selected by FROLS (error reduction
+  ratio) and an information criterion;
+* :func:`stlsq`, :class:`SINDy` — sparse regression of dynamics (SINDy).
+
 The workflow on a measured record (:class:`IDData`, MATLAB's ``iddata``):
 :func:`select_order` (``arxstruc``/``selstruc``), :func:`compare` (fit %),
 :func:`resid` (residual tests), ``model.summary()`` /
@@ -58,6 +64,7 @@ from ._regression import Regression
 from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
 from .statespace import StateSpaceModel, era, n4sid, okid
+from .nonlinear import NARX, SINDy, stlsq
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
@@ -82,6 +89,9 @@ __all__ = [
     "AR",
     "ARMA",
     "BJ",
+    "NARX",
+    "stlsq",
+    "SINDy",
     "NotFittedError",
     "compare",
     "resid",

@@ -83,7 +83,8 @@ def compare(data, *models, k=None, ax=None, names=None):
 
     For each model, the simulated output (``k=None``) or the k-step-ahead
     prediction from the measured input and output, with zero initial
-    conditions, and its normalised fit
+    conditions (a :class:`~adaptid.models.NARX` simulation starts from the
+    first L measured outputs), and its normalised fit
 
     .. math::
 
@@ -140,7 +141,12 @@ def compare(data, *models, k=None, ax=None, names=None):
     y, u = data.y, data.u
     outs = []
     for m in models:
-        yh = m.simulate(u) if k is None else m.predict(y, u, k=k)
+        if k is not None:
+            yh = m.predict(y, u, k=k)
+        elif getattr(m, "_simulate_needs_y0", False):  # NARX: starts from the measured outputs
+            yh = m.simulate(u, y0=y)
+        else:
+            yh = m.simulate(u)
         outs.append(np.asarray(yh, dtype=np.float64).reshape(-1))
     fit = np.array([fit_percent(y, yh) for yh in outs])
     res = CompareResult(fit=fit, names=names, y_hat=outs, y=y, time=np.asarray(data.t), k=k,

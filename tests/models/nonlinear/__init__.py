@@ -1,0 +1,1 @@
+"""Tests of adaptid.models.nonlinear (issue 35)."""
