@@ -34,9 +34,10 @@ def test_fixed_hyperparameters_bayes_formula(kernel, h):
     Phi, yv = _fir_rows(y, u, n, nk)
     i = np.arange(1, n + 1)
     mx = np.maximum.outer(i, i)
+    ipj, imj = np.add.outer(i, i), np.abs(np.subtract.outer(i, i))
     P = {"TC": lambda: h[0] * h[1] ** mx,
-         "DC": lambda: h[0] * h[1] ** (np.add.outer(i, i) / 2) * h[2] ** np.abs(np.subtract.outer(i, i)),
-         "SS": lambda: h[0] * (h[1] ** (np.add.outer(i, i) + mx) / 2 - h[1] ** (3 * mx) / 6)}[kernel]()
+         "DC": lambda: h[0] * h[1] ** (ipj / 2) * h[2] ** imj,
+         "SS": lambda: h[0] * (h[1] ** (ipj + mx) / 2 - h[1] ** (3 * mx) / 6)}[kernel]()
     assert np.allclose(kernel_matrix(kernel, n, h), P, rtol=1e-14, atol=0)
     if kernel != "SS":   # SS at λ = 0.9 and n = 20 is too ill-conditioned for an explicit P⁻¹
         post = np.linalg.inv(Phi.T @ Phi + s2 * np.linalg.inv(P))
@@ -46,7 +47,7 @@ def test_fixed_hyperparameters_bayes_formula(kernel, h):
     # the form without P⁻¹: θ = PΦᵀ(ΦPΦᵀ + σ²I)⁻¹y, valid for every P
     S = Phi @ P @ Phi.T + s2 * np.eye(yv.size)
     theta2 = P @ Phi.T @ np.linalg.solve(S, yv)
-    cov2 = s2 * (P - P @ Phi.T @ np.linalg.solve(S, Phi @ P)) / s2
+    cov2 = P - P @ Phi.T @ np.linalg.solve(S, Phi @ P)
     assert np.allclose(m.theta, theta2, rtol=0, atol=1e-10)
     assert np.allclose(m.cov, cov2, rtol=0, atol=1e-10)
     assert np.allclose(m.stderr, np.sqrt(np.diag(cov2)), rtol=1e-8)
@@ -122,3 +123,13 @@ def test_errors_name_the_argument():
         impulseest((y, u), 0)
     with pytest.raises(ValueError, match="noise_variance"):
         impulseest((y[:40], u[:40]), 30)
+
+
+def test_iddata_carries_dt_and_names():
+    from adaptid.models import IDData
+
+    y, u = _record(200, 9)
+    m = impulseest(IDData(y, u, dt=0.1), 15, nk=1, kernel="DC")
+    assert m.dt == 0.1 and m.names[0] == "b0" and m.hyperparameters.shape == (3,)
+    assert np.allclose(m.theta, impulseest(y, 15, u=u, nk=1, kernel="DC").theta)
+    assert m.to_control().dt == 0.1

@@ -25,7 +25,7 @@ def _instrument_rows(model, x, U):
 
 
 def _iv_solve(Z, Phi, y):
-    r"""θ = (ZᵀΦ)⁻¹Zᵀy and σ̂²(ZᵀΦ)⁻¹(ZᵀZ)(ΦᵀZ)⁻¹ by LU solves (no inverse)."""
+    r"""θ = (ZᵀΦ)⁻¹Zᵀy, σ̂²(ZᵀΦ)⁻¹(ZᵀZ)(ΦᵀZ)⁻¹ by LU solves (no inverse)."""
     S = Z.T @ Phi
     lu = linalg.lu_factor(S)
     theta = linalg.lu_solve(lu, Z.T @ y)

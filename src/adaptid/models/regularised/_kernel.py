@@ -184,6 +184,10 @@ def _tune(gram, kernel, sizes, sigma2, theta_ls):
                 continue
             if best is None or ll > best[0]:
                 best = (ll, h)
+    if best is None:
+        raise param_error("data", "a record on which the marginal likelihood can be "
+                          "evaluated (every starting kernel failed; give hyperparameters=)",
+                          "<no finite value>")
     lo_lam, hi_lam = np.log(1e-6), np.log(1 - 1e-9)
     bounds = []
     for _ in range(nb):
@@ -247,8 +251,6 @@ def _fit_regularised(model, Phi, yv, kernel, sizes, hyperparameters, noise_varia
 
 
 def _signals(data, u):
-    from .._iddata import as_signals
-
     if isinstance(data, tuple) and u is None:
         if len(data) != 2:
             raise param_error("data", "an IDData or a pair (y, u)", f"<a {len(data)}-tuple>")
