@@ -398,7 +398,9 @@ def test_public_index():
                 # issue 34: state-space models
                 "StateSpaceModel", "n4sid", "era", "okid",
                 # issue 35: nonlinear models
-                "NARX", "stlsq", "SINDy"}
+                "NARX", "stlsq", "SINDy",
+                # issue 37: regularised and instrumental-variable estimation
+                "impulseest", "arx_regul", "kernel_matrix", "iv4", "ivx"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

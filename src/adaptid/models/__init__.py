@@ -41,6 +41,13 @@ State-space models (subpackage :mod:`adaptid.models.statespace`):
 (eigensystem realisation from Markov parameters), :func:`okid`
 (observer/Kalman filter identification), all returning a
 :class:`StateSpaceModel`.
+
+Regularised estimation (subpackage :mod:`adaptid.models.regularised`):
+:func:`impulseest` (FIR with TC, DC or SS kernels, hyperparameters by
+marginal likelihood), :func:`arx_regul` (regularised ARX),
+:func:`kernel_matrix`. Instrumental variables (subpackage
+:mod:`adaptid.models.iv`): :func:`iv4` (Ljung's four-stage method),
+:func:`ivx` (given instruments). All return :class:`ARX` objects.
 """
 
 from __future__ import annotations
@@ -65,6 +72,8 @@ from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
 from .statespace import StateSpaceModel, era, n4sid, okid
 from .nonlinear import NARX, SINDy, stlsq
+from .regularised import arx_regul, impulseest, kernel_matrix
+from .iv import iv4, ivx
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
@@ -105,6 +114,11 @@ __all__ = [
     "n4sid",
     "era",
     "okid",
+    "impulseest",
+    "arx_regul",
+    "kernel_matrix",
+    "iv4",
+    "ivx",
 ]
 
 
