@@ -398,7 +398,9 @@ def test_public_index():
                 # issue 34: state-space models
                 "StateSpaceModel", "n4sid", "era", "okid",
                 # issue 35: nonlinear models
-                "NARX", "stlsq", "SINDy"}
+                "NARX", "stlsq", "SINDy",
+                # issue 36: frequency responses
+                "FrequencyResponse", "spa", "etfe"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

@@ -41,6 +41,11 @@ State-space models (subpackage :mod:`adaptid.models.statespace`):
 (eigensystem realisation from Markov parameters), :func:`okid`
 (observer/Kalman filter identification), all returning a
 :class:`StateSpaceModel`.
+
+Frequency domain (subpackage :mod:`adaptid.models.frequency`):
+:class:`FrequencyResponse` (Bode with confidence bands; returned by every
+polynomial model's ``freqresp``), :func:`spa` (Blackman–Tukey spectral
+analysis), :func:`etfe` (empirical transfer-function estimate).
 """
 
 from __future__ import annotations
@@ -65,6 +70,7 @@ from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
 from .statespace import StateSpaceModel, era, n4sid, okid
 from .nonlinear import NARX, SINDy, stlsq
+from .frequency import FrequencyResponse, etfe, spa
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
@@ -105,6 +111,9 @@ __all__ = [
     "n4sid",
     "era",
     "okid",
+    "FrequencyResponse",
+    "spa",
+    "etfe",
 ]
 
 
