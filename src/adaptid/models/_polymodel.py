@@ -444,8 +444,10 @@ class _PolyModel:
         the 2 × d Jacobian of (Re G, Im G) and Σ the parameter covariance
         (``cov``), the covariance of (Re G, Im G) is :math:`J\Sigma J^\top`
         (first order), mapped to the standard deviations of :math:`|G|` and
-        :math:`\arg G` by the delta method (MATLAB's convention; see
-        :func:`adaptid.models.frequency.polar_sd`).
+        :math:`\arg G` by the delta method (MATLAB's convention: with
+        :math:`G = x + iy`,
+        :math:`\sigma_{|G|}^2 = (x^2c_{rr} + 2xy\,c_{ri} + y^2c_{ii})/|G|^2` and
+        :math:`\sigma_{\arg G}^2 = (y^2c_{rr} - 2xy\,c_{ri} + x^2c_{ii})/|G|^4`).
 
         Parameters
         ----------

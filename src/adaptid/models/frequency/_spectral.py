@@ -77,8 +77,8 @@ def spa(data, window=None, w=None):
     window : int, optional
         Lag-window width M, 1 ≤ M < N (default MATLAB's min(N/10, 30)).
     w : array_like, optional
-        Frequencies in rad per time unit (default MATLAB's 128-point grid,
-        :func:`default_grid`).
+        Frequencies in rad per time unit (default MATLAB's 128-point grid
+        :math:`\frac{k}{128}\frac{\pi}{dt}`, k = 1 … 128).
 
     Returns
     -------
