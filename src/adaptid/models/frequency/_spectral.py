@@ -136,7 +136,7 @@ def etfe(data, smoothing=None):
 
     With ``smoothing`` = s the estimate is the Hann-weighted average over
     the 2s + 1 neighbouring DFT frequencies (weights
-    :math:`\tfrac12(1 + \cos(\pi j/(s + 1)))`, |j| ≤ s, circular), weighted
+    :math:`\tfrac12(1 + \cos(\pi j/(s + 1)))`, :math:`|j| \le s`, circular), weighted
     by :math:`|U|^2` (Ljung 1999, eq. 6.46):
     :math:`\hat G = \overline{Y\bar U}/\overline{|U|^2}`, and the noise
     spectrum :math:`\frac{dt}{N}\bigl(\overline{|Y|^2} - |\overline{Y\bar U}|^2/\overline{|U|^2}\bigr)`
