@@ -105,7 +105,8 @@ def test_freqresp_several_inputs_shape():
     assert fr.to_frame().shape[0] == 4
 
 
-def test_band_coverage_monte_carlo():
+@pytest.mark.parametrize("structure", ["arx", "oe"])
+def test_band_coverage_monte_carlo(structure):
     """About 95 % of the ±1.96 sd bands of |G| cover the true |G| (200 runs, N = 300)."""
     w = np.array([0.2, 1.0, 2.5])
     z = np.exp(-1j * w)
@@ -114,8 +115,14 @@ def test_band_coverage_monte_carlo():
     hits = np.zeros(w.size)
     runs = 200
     for _ in range(runs):
-        y, u = _arx_data(300, rng)
-        fr = ARX(1, 2, 1).fit(y, u).freqresp(w)
+        if structure == "arx":
+            y, u = _arx_data(300, rng)
+            model = ARX(1, 2, 1)
+        else:   # output error: white noise added to the output
+            u = rng.standard_normal(300)
+            y = lfilter([0.0, 1.0, 0.5], [1.0, -0.6], u) + 0.3 * rng.standard_normal(300)
+            model = OE(2, 1, 1)
+        fr = model.fit(y, u).freqresp(w)
         hits += np.abs(fr.magnitude - G_true) <= 1.96 * fr.magnitude_sd
     cover = hits / runs
     assert np.all((cover > 0.85) & (cover < 0.99)), cover
