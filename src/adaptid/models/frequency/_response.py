@@ -10,7 +10,7 @@ __all__ = ["FrequencyResponse", "default_grid", "polar_sd"]
 
 
 def default_grid(dt):
-    r"""MATLAB's default grid: 128 frequencies :math:`\omega_k = \frac{k}{128}\frac{\pi}{dt}`, k = 1 … 128.
+    r"""MATLAB's default grid: :math:`\omega_k = \frac{k}{128}\frac{\pi}{dt}`, k = 1 … 128.
 
     Parameters
     ----------
@@ -146,7 +146,8 @@ class FrequencyResponse:
     def _pairs(self):
         """[(output index, input index, name, G, |G| sd, phase sd)] for every channel."""
         G3 = self.response.reshape(len(self.y_names), len(self.u_names), -1)
-        sds = [None if s is None else s.reshape(G3.shape) for s in (self.magnitude_sd, self.phase_sd)]
+        sds = [None if s is None else s.reshape(G3.shape)
+               for s in (self.magnitude_sd, self.phase_sd)]
         out = []
         for i, yn in enumerate(self.y_names):
             for j, un in enumerate(self.u_names):
@@ -238,7 +239,10 @@ class FrequencyResponse:
         pairs = self._pairs()
         axes = fig.subplots(2, len(pairs), squeeze=False, sharex=True)
         f = self.w / (2 * np.pi) if hz else self.w
-        unit = ("Hz" if hz else "rad/s") if self.dt is not None else ("cycles" if hz else "rad") + " per time unit"
+        if self.dt is not None:
+            unit = "Hz" if hz else "rad/s"
+        else:
+            unit = ("cycles" if hz else "rad") + " per time unit"
         for c, (_, _, name, G, msd, psd) in enumerate(pairs):
             am, ap = axes[0, c], axes[1, c]
             mag = np.abs(G)

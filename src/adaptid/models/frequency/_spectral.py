@@ -31,7 +31,7 @@ def _siso(data, where):
 
 
 def _covariances(x, z, M):
-    r"""Biased cross-covariances :math:`R_{xz}(\tau) = \frac1N\sum_t x_{t+\tau}z_t`, τ = −M … M."""
+    r"""Biased covariances :math:`R_{xz}(\tau) = \frac1N\sum_t x_{t+\tau}z_t`, τ = −M … M."""
     N = x.size
     full = np.correlate(x, z, mode="full") / N       # lags −(N−1) … N−1
     return full[N - 1 - M: N + M]
@@ -55,7 +55,7 @@ def spa(data, window=None, w=None):
         \hat G(\omega) = \frac{\Phi_{yu}(\omega)}{\Phi_u(\omega)},\qquad
         \hat\Phi_v(\omega) = \Phi_y(\omega) - \frac{|\Phi_{yu}(\omega)|^2}{\Phi_u(\omega)}
 
-    (Ljung 1999, eqs. 6.48–6.51). The noise spectrum is returned scaled by
+    (Ljung 1999, sec. 6.4). The noise spectrum is returned scaled by
     ``dt`` (MATLAB's convention: a spectral density per unit of frequency
     in rad per time unit divided by 2π).
 
@@ -130,16 +130,17 @@ def etfe(data, smoothing=None):
 
         \hat G(\omega_k) = \frac{Y_k}{U_k}
 
-    (Ljung 1999, eq. 6.24), exact for noise-free periodic data over an
+    (Ljung 1999, sec. 6.3), exact for noise-free periodic data over an
     integer number of periods at the excited frequencies. Frequencies
     where :math:`|U_k| \le 10^{-10}\max|U|` (not excited) are NaN.
 
     With ``smoothing`` = s the estimate is the Hann-weighted average over
     the 2s + 1 neighbouring DFT frequencies (weights
     :math:`\tfrac12(1 + \cos(\pi j/(s + 1)))`, :math:`|j| \le s`, circular), weighted
-    by :math:`|U|^2` (Ljung 1999, eq. 6.46):
+    by :math:`|U|^2` (Ljung 1999, sec. 6.4):
     :math:`\hat G = \overline{Y\bar U}/\overline{|U|^2}`, and the noise
-    spectrum :math:`\frac{dt}{N}\bigl(\overline{|Y|^2} - |\overline{Y\bar U}|^2/\overline{|U|^2}\bigr)`
+    spectrum
+    :math:`\frac{dt}{N}\bigl(\overline{|Y|^2} - |\overline{Y\bar U}|^2/\overline{|U|^2}\bigr)`
     (zero without smoothing: one frequency fits exactly). No standard
     deviations are returned.
 
