@@ -55,9 +55,9 @@ def spa(data, window=None, w=None):
         \hat G(\omega) = \frac{\Phi_{yu}(\omega)}{\Phi_u(\omega)},\qquad
         \hat\Phi_v(\omega) = \Phi_y(\omega) - \frac{|\Phi_{yu}(\omega)|^2}{\Phi_u(\omega)}
 
-    (Ljung 1999, sec. 6.4). The noise spectrum is returned scaled by
-    ``dt`` (MATLAB's convention: a spectral density per unit of frequency
-    in rad per time unit divided by 2π).
+    (Ljung 1999, sec. 6.4). The noise spectrum is returned multiplied by
+    ``dt``, :math:`dt\cdot\hat\Phi_v` (MATLAB's scaling of a spectrum of
+    sampled data; with ``dt`` = 1 it is the sum above).
 
     **Uncertainty.** Ljung (1999, eqs. 6.69–6.70): asymptotically
     :math:`\operatorname{Var}\hat G(\omega) \approx \frac{1}{N}\,\alpha_M\,
