@@ -400,7 +400,9 @@ def test_public_index():
                 # issue 35: nonlinear models
                 "NARX", "stlsq", "SINDy",
                 # issue 37: regularised and instrumental-variable estimation
-                "impulseest", "arx_regul", "kernel_matrix", "iv4", "ivx"}
+                "impulseest", "arx_regul", "kernel_matrix", "iv4", "ivx",
+                # issue 36: frequency responses
+                "FrequencyResponse", "spa", "etfe"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

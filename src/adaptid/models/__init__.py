@@ -48,6 +48,11 @@ marginal likelihood), :func:`arx_regul` (regularised ARX),
 :func:`kernel_matrix`. Instrumental variables (subpackage
 :mod:`adaptid.models.iv`): :func:`iv4` (Ljung's four-stage method),
 :func:`ivx` (given instruments). All return :class:`ARX` objects.
+
+Frequency domain (subpackage :mod:`adaptid.models.frequency`):
+:class:`FrequencyResponse` (Bode with confidence bands; returned by every
+polynomial model's ``freqresp``), :func:`spa` (Blackman–Tukey spectral
+analysis), :func:`etfe` (empirical transfer-function estimate).
 """
 
 from __future__ import annotations
@@ -74,6 +79,7 @@ from .statespace import StateSpaceModel, era, n4sid, okid
 from .nonlinear import NARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import iv4, ivx
+from .frequency import FrequencyResponse, etfe, spa
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
@@ -119,6 +125,9 @@ __all__ = [
     "kernel_matrix",
     "iv4",
     "ivx",
+    "FrequencyResponse",
+    "spa",
+    "etfe",
 ]
 
 

@@ -136,6 +136,17 @@ class _TimeSeries:
         sys = control.tf(num, den, self.dt)
         return sys if form == "tf" else control.tf2ss(sys)
 
+    def _freq_structure(self):
+        """The noise model H = C/A as a function of θ (see ``_PolyModel._freq_structure``)."""
+        d = self.theta.size
+        a_i, _, c_i, _ = self._split(np.arange(d, dtype=float))
+        A, _, C, _ = self._polys()
+        return [((C, [(int(j), k + 1) for k, j in enumerate(c_i)]),
+                 [(A, [(int(j), k + 1) for k, j in enumerate(a_i)])])]
+
+    def _freq_names(self):
+        return (getattr(self, "y_name", "y"),), ("e",)
+
     def __repr__(self):
         orders = ", ".join(f"{k}={getattr(self, k)}" for k in self._order_names)
         state = "fitted" if self.theta is not None else "not fitted"

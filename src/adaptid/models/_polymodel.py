@@ -406,6 +406,136 @@ class _PolyModel:
         Dss = np.hstack([b[3] for b in blocks])
         return control.ss(Ass, Bss, Css, Dss, self.dt, **io)
 
+    # ------------------------------------------------------ frequency domain
+    def _freq_structure(self):
+        """The transfer functions as rational functions of θ, one per input.
+
+        A list of ``(num, dens)``: ``num`` and every entry of ``dens`` are
+        ``(coefficients in q⁻¹, [(θ index, power of q⁻¹), …])`` — which
+        parameter multiplies which power (read off :meth:`_split` applied to
+        the indices themselves, so every model's θ order is respected).
+        Here :math:`G_i = B_i / (A F_i)`.
+        """
+        d = self.theta.size
+        a_i, bs_i, _, fs_i = self._split(np.arange(d, dtype=float))
+        A, Bs, _, Fs = self._polys()
+        A_par = [(int(j), k + 1) for k, j in enumerate(a_i)]
+        out = []
+        for i in range(self._m):
+            B_par = [(int(j), self._nk[i] + k) for k, j in enumerate(bs_i[i])]
+            F_par = [(int(j), k + 1) for k, j in enumerate(fs_i[i])]
+            out.append(((Bs[i], B_par), [(A, A_par), (Fs[i], F_par)]))
+        return out
+
+    def _freq_names(self):
+        return (getattr(self, "y_name", "y"),), tuple(getattr(self, "u_names", ())) or None
+
+    def freqresp(self, w=None):
+        r"""Frequency response with standard deviations from the parameter covariance.
+
+        :math:`G_i(e^{i\omega dt}) = B_i/(A F_i)` evaluated at
+        :math:`q^{-1} = e^{-i\omega\,dt}` (for :class:`AR`/:class:`ARMA`
+        the noise model :math:`H = C/A`, as their ``to_control``). The
+        derivative of the rational function with respect to each parameter
+        is analytic: for a numerator coefficient at :math:`q^{-k}`,
+        :math:`\partial G/\partial\theta = e^{-i\omega k\,dt}/D`; for a
+        coefficient at :math:`q^{-k}` of a denominator factor P,
+        :math:`\partial G/\partial\theta = -G\,e^{-i\omega k\,dt}/P`. With J
+        the 2 × d Jacobian of (Re G, Im G) and Σ the parameter covariance
+        (``cov``), the covariance of (Re G, Im G) is :math:`J\Sigma J^\top`
+        (first order), mapped to the standard deviations of :math:`|G|` and
+        :math:`\arg G` by the delta method (MATLAB's convention: with
+        :math:`G = x + iy`,
+        :math:`\sigma_{|G|}^2 = (x^2c_{rr} + 2xy\,c_{ri} + y^2c_{ii})/|G|^2` and
+        :math:`\sigma_{\arg G}^2 = (y^2c_{rr} - 2xy\,c_{ri} + x^2c_{ii})/|G|^4`).
+
+        Parameters
+        ----------
+        w : array_like, optional
+            Frequencies in rad per time unit of ``dt`` (default MATLAB's
+            128 points :math:`\frac{k}{128}\frac{\pi}{dt}`, k = 1 … 128).
+
+        Returns
+        -------
+        FrequencyResponse
+            ``response`` of shape (nw,) for one input, (1, m, nw) for m
+            inputs; no standard deviations when the model has no ``cov``.
+        """
+        from .frequency._response import FrequencyResponse, default_grid, polar_sd
+
+        self._check_fitted()
+        w = default_grid(self.dt) if w is None else as_float_array(w, "w", ndim=1)
+        zinv = np.exp(-1j * w * self.dt)
+        cov = getattr(self, "cov", None)
+        d = self.theta.size
+        Gs, msds, psds = [], [], []
+        for (num, num_par), dens in self._freq_structure():
+            val = lambda p: np.polyval(p[::-1], zinv)   # noqa: E731 - Σ p_k z^{-k}
+            N_ = val(num)
+            D_vals = [val(p) for p, _ in dens]
+            D = np.prod(D_vals, axis=0) if D_vals else np.ones_like(zinv)
+            G = N_ / D
+            J = np.zeros((w.size, d), dtype=complex)
+            for j, k in num_par:
+                J[:, j] += zinv ** k / D
+            for (_, par), P in zip(dens, D_vals):
+                for j, k in par:
+                    J[:, j] -= G * zinv ** k / P
+            Gs.append(G)
+            if cov is not None:
+                S = np.asarray(cov, dtype=float)
+                Jr, Ji = J.real, J.imag
+                c_rr = np.einsum("wi,ij,wj->w", Jr, S, Jr)
+                c_ri = np.einsum("wi,ij,wj->w", Jr, S, Ji)
+                c_ii = np.einsum("wi,ij,wj->w", Ji, S, Ji)
+                ms, ps = polar_sd(G, c_rr, c_ri, c_ii)
+                msds.append(ms)
+                psds.append(ps)
+        y_names, u_names = self._freq_names()
+        if len(Gs) == 1:
+            shape = lambda xs: xs[0]   # noqa: E731
+        else:
+            shape = lambda xs: np.stack(xs)[None, :, :]   # noqa: E731
+        return FrequencyResponse(w, shape(Gs), self.dt,
+                                 magnitude_sd=shape(msds) if msds else None,
+                                 phase_sd=shape(psds) if psds else None,
+                                 y_names=y_names, u_names=u_names)
+
+    def rsample(self, n, seed=None):
+        r"""n models with parameters drawn from :math:`N(\hat\theta, \Sigma)`: MATLAB's ``rsample``.
+
+        For Monte Carlo bands: each is a shallow copy of this model with
+        ``theta`` replaced (its ``cov``, residuals and other statistics are
+        those of this fit).
+
+        Parameters
+        ----------
+        n : int
+            Number of models, ``>= 1``.
+        seed : int or numpy.random.Generator, optional
+
+        Returns
+        -------
+        list
+            n models of this model's type.
+        """
+        import copy
+
+        self._check_fitted()
+        n = check_int(n, "n", low=1)
+        cov = getattr(self, "cov", None)
+        if cov is None:
+            raise param_error("self", "a model with a parameter covariance (cov)", "<cov None>")
+        rng = np.random.default_rng(seed)
+        thetas = rng.multivariate_normal(self.theta, np.asarray(cov, dtype=float), size=n,
+                                         method="eigh")
+        out = []
+        for th in thetas:
+            m = copy.copy(self)
+            m.theta = th
+            out.append(m)
+        return out
+
     # -------------------------------------------------------- recursive util
     def _time_of(self, index):
         """Time stamps of the rows ``index`` when the fit's data was an IDData."""

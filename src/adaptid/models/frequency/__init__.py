@@ -1,0 +1,19 @@
+r"""Frequency-domain models: responses with their uncertainty and nonparametric estimates.
+
+* :class:`FrequencyResponse` — a frequency response (complex, per output
+  and input) with the standard deviations of its magnitude and phase and
+  an optional noise spectrum; ``summary()``, ``to_frame()``, ``plot()``
+  (Bode with confidence bands). Returned by the polynomial models'
+  ``freqresp`` and by the estimators below.
+* :func:`spa` — Blackman–Tukey spectral analysis with a Hann lag window
+  (MATLAB's ``spa``);
+* :func:`etfe` — the empirical transfer-function estimate Y(ω)/U(ω),
+  optionally smoothed (MATLAB's ``etfe``).
+"""
+
+from __future__ import annotations
+
+from ._response import FrequencyResponse, default_grid
+from ._spectral import etfe, spa
+
+__all__ = ["FrequencyResponse", "spa", "etfe", "default_grid"]
