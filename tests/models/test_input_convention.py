@@ -150,3 +150,8 @@ def test_one_error_for_anything_else(sig):
         ARX(1, 2, 1).fit((y,))
     with pytest.raises(TypeError, match="u must be an input signal"):
         BJ(1, 1, 1, 1).fit(y)
+
+
+def test_a_tuple_of_numbers_is_still_a_signal(sig):
+    y, _ = sig
+    np.testing.assert_array_equal(AR(2).fit(tuple(y)).theta, AR(2).fit(y).theta)

@@ -482,7 +482,8 @@ def as_signals(y, u=None, *, where="y"):
     (their names, and the ``dt`` of a time index) when they are named or
     indexed by time.
     """
-    if isinstance(y, tuple) and u is None:
+    if isinstance(y, tuple) and u is None and any(np.ndim(v) > 0 for v in y):
+        # a tuple of signals is the pair (y, u); a tuple of numbers stays a signal
         if len(y) != 2:
             raise param_error(where, RECORD, f"<a tuple of {len(y)} items>")
         y, u = y
