@@ -25,7 +25,9 @@ class _TimeSeries:
 
     @staticmethod
     def _no_input(y):
-        y = as_float_array(y, "y", ndim=1)
+        from ._iddata import _squeeze_column
+
+        y = as_float_array(_squeeze_column(np.asarray(y)), "y", ndim=1)
         return y, np.zeros(y.shape[0])
 
     @staticmethod

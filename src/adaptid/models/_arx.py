@@ -101,9 +101,15 @@ class ARX(_PolyModel):
 
         Parameters
         ----------
-        y : array_like, shape (N,); pandas Series; or IDData
-            Output, or the whole record (``u`` then omitted; its names go
-            into :meth:`summary` and its ``dt`` into the model).
+        y : array_like, shape (N,) or (N, 1); pandas Series; IDData; tuple; DataFrame
+            Output, or the whole record with ``u`` omitted: an IDData, a
+            ``(y, u)`` tuple, or a DataFrame whose first column is the
+            output and the others the inputs. Named or time-indexed data
+            give their names to :meth:`summary` and their ``dt`` to the
+            model. This is the one input convention of every polynomial
+            model's ``fit`` / ``fit_recursive`` and of :func:`compare`,
+            :func:`resid`, :func:`select_order`; anything else is refused
+            naming the argument. (N, 1) is squeezed to (N,).
         u : array_like, shape (N,) or (N, m); pandas
 
         Returns
@@ -132,8 +138,9 @@ class ARX(_PolyModel):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
-        u : array_like, shape (N,) or (N, m)
+        y : array_like, shape (N,) or (N, 1); pandas; IDData; tuple; DataFrame
+            As :meth:`fit` (the one input convention).
+        u : array_like, shape (N,) or (N, m); optional
         estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
             With ``n_params`` equal to the model's d; its options
             (forgetting — a float or a strategy object —, window, process

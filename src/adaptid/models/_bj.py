@@ -217,7 +217,7 @@ class BJ(_PseudoLinearModel):
         return theta
 
     # ------------------------------------------------------------- fit
-    def fit(self, y, u, *, refine=True, n_iter=30, arx_order=None, max_nfev=None):
+    def fit(self, y, u=None, *, refine=True, n_iter=30, arx_order=None, max_nfev=None):
         r"""Batch fit: Steiglitz–McBride + Hannan–Rissanen start, prediction-error minimisation.
 
         1. B, F: :meth:`OE.fit` (Steiglitz–McBride iterations, least squares
@@ -237,8 +237,12 @@ class BJ(_PseudoLinearModel):
 
         Parameters
         ----------
-        y : array_like, shape (N,)
-        u : array_like, shape (N,) or (N, m)
+        y : array_like, shape (N,) or (N, 1); pandas; IDData; or a (y, u) tuple
+            Output, or the whole record (``u`` then omitted): an IDData, a
+            ``(y, u)`` tuple, or a DataFrame with the output column first
+            and the inputs after it (the one input convention, see
+            :meth:`ARX.fit`).
+        u : array_like, shape (N,) or (N, m); pandas; optional
         refine : bool
             Run step 3 (default True); False keeps the start estimate.
         n_iter : int

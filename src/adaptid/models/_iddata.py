@@ -446,14 +446,49 @@ class IDData:
                 f"dt={self.dt:g}{trend})")
 
 
-def as_signals(y, u, *, where="y"):
+#: What every entry point (the models' ``fit`` / ``fit_recursive``, ``compare``,
+#: ``resid``, ``select_order``) accepts as a record; the one error message.
+RECORD = ("an IDData, arrays (y, u) (two arguments or one tuple), or pandas "
+          "Series/DataFrames (one DataFrame: the output column first, the inputs after it)")
+
+
+def _is_frame(obj):
+    return hasattr(obj, "columns") and hasattr(obj, "iloc")
+
+
+def _squeeze_column(arr):
+    """An (N, 1) array (or DataFrame's values) as (N,), as :class:`IDData` and ``lstsq`` do."""
+    if getattr(arr, "ndim", 0) == 2 and arr.shape[1] == 1:
+        return arr[:, 0]
+    return arr
+
+
+def as_signals(y, u=None, *, where="y"):
     """(y (N,), U-like or None, IDData or None) from ``fit(data)`` or ``fit(y, u)``.
 
-    An :class:`IDData` (or anything with ``outputs``/``inputs``) must come
-    alone and have one output; pandas objects become arrays, and an IDData
+    The one input convention of adaptid's models and workflow functions:
+
+    * an :class:`IDData` (or anything with ``outputs``/``inputs``), alone,
+      with one output;
+    * arrays ``(y, u)``: two arguments, or one tuple ``(y, u)`` (``u`` may
+      be None for a model without inputs);
+    * pandas Series / DataFrames: ``y`` and ``u`` separately, or one
+      DataFrame whose first column is the output and the others the inputs
+      (as :func:`compare` reads one); a single-column DataFrame or a Series
+      is an output alone.
+
+    ``y`` of shape (N, 1) is squeezed to (N,), as :class:`IDData` and
+    :func:`adaptid.lstsq` do. pandas objects become arrays, and an IDData
     (their names, and the ``dt`` of a time index) when they are named or
     indexed by time.
     """
+    if isinstance(y, tuple) and u is None and any(np.ndim(v) > 0 for v in y):
+        # a tuple of signals is the pair (y, u); a tuple of numbers stays a signal
+        if len(y) != 2:
+            raise param_error(where, RECORD, f"<a tuple of {len(y)} items>")
+        y, u = y
+    if _is_frame(y) and u is None and y.shape[1] >= 2:
+        y, u = y.iloc[:, 0], y.iloc[:, 1:]
     if isinstance(y, IDData):
         if u is not None:
             raise param_error("u", "None when the first argument is an IDData", "<an array>",
@@ -461,10 +496,25 @@ def as_signals(y, u, *, where="y"):
         if y.n_outputs != 1:
             raise param_error(where, "an IDData with one output", f"<{y.n_outputs} outputs>")
         return y.y, (y.u if y.n_inputs else None), y
-    y_arr = getattr(y, "to_numpy", lambda: y)()
+    y_arr = _squeeze_column(getattr(y, "to_numpy", lambda: y)())
     u_arr = None if u is None else getattr(u, "to_numpy", lambda: u)()
     named = _names_of(y) is not None or (u is not None and _names_of(u) is not None)
     timed = _has_time(y) or (u is not None and _has_time(u))
     if named or timed:      # pandas: its names and the dt of its index go into the model
         return y_arr, u_arr, IDData(y, u)
     return y_arr, u_arr, None
+
+
+def as_record(data, u=None, *, where="data"):
+    """An :class:`IDData` from anything :func:`as_signals` accepts (the workflow functions).
+
+    A bare array without ``u`` is refused (TypeError naming ``where``): a
+    record is an IDData, a pair, or pandas data.
+    """
+    if isinstance(data, IDData) and u is None:
+        return data
+    pandas = _is_frame(data) or (hasattr(data, "to_numpy") and hasattr(data, "index"))
+    if u is None and not (isinstance(data, tuple) or pandas):
+        raise param_error(where, RECORD, data, exc=TypeError)
+    y, u, rec = as_signals(data, u, where=where)
+    return rec if rec is not None else IDData(y, u)

@@ -31,6 +31,11 @@ def model_summary(model, *, alpha=0.05, max_lag=25):
       limits θ ± t_{1−α/2, N−d}·se;
     * σ̂² = SSR/(N − d), ℓ = −N/2 (log 2π + log V + 1), AIC = −2ℓ + 2d,
       BIC = −2ℓ + d log N, FPE = V(1 + d/N)/(1 − d/N) (Ljung 1999, eq. 16.31);
+      the one definition of AIC and FPE in adaptid, also in
+      :func:`~adaptid.models.select_order`'s table. That table's N is the
+      grid's common rows, so its AIC for a structure is the one of
+      ``OrderSelection.model()``'s summary (fitted on those rows); a model
+      fitted on the whole record has more rows, so a larger N and AIC;
     * fit % (MATLAB's NRMSE) of the one-step prediction and of the
       simulation on the estimation record (zero initial conditions);
     * the Ljung–Box p-value of εₖ and, per input, the p-value of the

@@ -9,24 +9,25 @@ import numpy as np
 
 from .._teststats import cross_correlation, fit_percent, ljung_box
 from .._validation import check_choice, check_int, check_scalar, param_error
-from ._iddata import IDData
+from ._iddata import IDData, as_record
 
 __all__ = ["compare", "resid", "select_order", "CompareResult", "ResidResult", "OrderSelection"]
 
 
-def _as_iddata(data, name="data"):
-    """An IDData from an IDData, a (y, u) pair or a pandas DataFrame (first column y)."""
-    if isinstance(data, IDData):
-        return data
-    if isinstance(data, tuple) and len(data) == 2:
-        return IDData(data[0], data[1])
-    if hasattr(data, "columns") and hasattr(data, "iloc"):
-        if data.shape[1] < 2:
-            raise param_error(name, "a DataFrame with the output then the input columns",
-                              f"<{data.shape[1]} column>")
-        return IDData(data.iloc[:, 0], data.iloc[:, 1:])
-    raise param_error(name, "an IDData, a (y, u) tuple or a DataFrame (output column first)",
-                      data, exc=TypeError)
+def _as_iddata(data, name="data", u=None):
+    """The record: :func:`adaptid.models._iddata.as_record` (the one input convention)."""
+    return as_record(data, u, where=name)
+
+
+def _is_model(obj):
+    return hasattr(obj, "predict")
+
+
+def _split_models(data, models):
+    """``f(data, *models)`` or ``f(y, u, *models)``: the record and the models."""
+    if models and not _is_model(models[0]):
+        return _as_iddata(data, "data", models[0]), models[1:]
+    return _as_iddata(data), models
 
 
 def _single_output(data, name="data"):
@@ -95,8 +96,10 @@ def compare(data, *models, k=None, ax=None, names=None):
 
     Parameters
     ----------
-    data : IDData, (y, u) tuple or DataFrame (output column first)
-        The record to compare on (usually the validation part).
+    data : IDData, (y, u) tuple, DataFrame (output column first) or Series
+        The record to compare on (usually the validation part). Arrays may
+        also come as two arguments, ``compare(y, u, *models)`` (the one
+        input convention of the models' ``fit``).
     *models : fitted models
         Anything with ``simulate(u)`` and ``predict(y, u, k)``.
     k : int, optional
@@ -126,7 +129,7 @@ def compare(data, *models, k=None, ax=None, names=None):
     >>> bool(res.fit[0] > 90)
     True
     """
-    data = _as_iddata(data)
+    data, models = _split_models(data, models)
     _single_output(data)
     if not models:
         raise param_error("models", "at least one fitted model", "<none>", exc=TypeError)
@@ -215,7 +218,7 @@ class ResidResult:
                 f"(white={self.white}); cross-correlation {ind}; alpha={self.alpha})")
 
 
-def resid(data, model, *, max_lag=25, alpha=0.01, ax=None, start=None):
+def resid(data, *models, max_lag=25, alpha=0.01, ax=None, start=None):
     r"""Residual analysis on a record: MATLAB's ``resid``.
 
     The one-step prediction errors :math:`\varepsilon_k = y_k - \hat y_{k|k-1}`
@@ -232,27 +235,43 @@ def resid(data, model, *, max_lag=25, alpha=0.01, ax=None, start=None):
 
     Parameters
     ----------
-    data : IDData, (y, u) tuple or DataFrame (output column first)
-    model : fitted model
-        With ``predict(y, u, k)``.
+    data : IDData, (y, u) tuple, DataFrame (output column first) or Series
+        Arrays may also come as two arguments, ``resid(y, u, *models)``
+        (the one input convention of the models' ``fit``).
+    *models : fitted models
+        One or more, each with ``predict(y, u, k)`` (as :func:`compare`).
     max_lag : int
         M, 1 ≤ M < N (default 25, as MATLAB).
     alpha : float
         Level of the bands and tests (default 0.01).
     ax : sequence of 1 + m matplotlib Axes, optional
         If given, the figure (:func:`adaptid.plot.resid`) is drawn into them.
+        Only with one model.
     start : int, optional
-        First sample tested; default the model's first fitted row
+        First sample tested; default each model's first fitted row
         ``model.index[0]`` (max(na, nk + nb − 1) for ARX), 0 if the model
         has no ``index``.
 
     Returns
     -------
-    ResidResult
-        The numbers, the verdicts ``white`` and ``independent``, and
-        ``figure`` when drawn.
+    ResidResult or tuple of ResidResult
+        For one model, its :class:`ResidResult` (the numbers, the verdicts
+        ``white`` and ``independent``, and ``figure`` when drawn); for
+        several, a tuple of one :class:`ResidResult` per model, in order.
     """
-    data = _as_iddata(data)
+    data, models = _split_models(data, models)
+    if not models:
+        raise param_error("models", "at least one fitted model", "<none>", exc=TypeError)
+    if len(models) > 1:
+        if ax is not None:
+            raise param_error("ax", "None when several models are analysed (draw each "
+                              "result with its plot())", "<axes>")
+        return tuple(_resid_one(data, m, max_lag=max_lag, alpha=alpha, ax=None, start=start)
+                     for m in models)
+    return _resid_one(data, models[0], max_lag=max_lag, alpha=alpha, ax=ax, start=start)
+
+
+def _resid_one(data, model, *, max_lag, alpha, ax, start):
     _single_output(data)
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
     if start is None:
@@ -287,17 +306,50 @@ class OrderSelection:
     ----------
     table : pandas.DataFrame or dict of ndarray
         One row per structure: ``na``, ``nb``, ``nk``, ``n_params``,
-        ``loss`` (V = SSR/N on the common rows), ``aic``, ``fpe`` and
-        ``fit_validation`` (simulation fit % on the validation record, NaN
-        without one); a DataFrame when pandas is installed.
+        ``loss`` (MATLAB's ``arxstruc`` loss: with a validation record the
+        validation loss :math:`V = \frac1{N_v}\sum e_k^2` of the one-step
+        prediction errors on it, otherwise the estimation loss V = SSR/N on
+        the common rows), ``aic``, ``fpe`` (from the estimation loss, the
+        definitions of :meth:`ARX.summary`) and ``fit_validation``
+        (simulation fit % on the validation record, NaN without one); a
+        DataFrame when pandas is installed.
     best : tuple of int
         (na, nb, nk) of the chosen structure.
     criterion : str
+    start : int
+        s, the common first row of the estimation record.
     """
 
     table: object
     best: tuple
     criterion: str
+    start: int = 0
+    data: object = field(default=None, repr=False)
+
+    def model(self, order=None):
+        r"""The structure fitted on the table's rows, as :class:`ARX`.
+
+        ``ARX(na, nb, nk).fit(data[s - s_own:])`` with s the common first
+        row and :math:`s_{own} = \max(n_a, n_k + n_b - 1)`: the same rows
+        k = s … N − 1 as the table, so its :meth:`~ARX.summary` reports the
+        table's ``aic``, ``fpe`` and estimation loss exactly. (``ARX(...).fit(data)``
+        on the whole record uses its own, longer, rows k = s_own … N − 1,
+        hence a different N in its AIC.)
+
+        Parameters
+        ----------
+        order : tuple of int, optional
+            (na, nb, nk); default :attr:`best`.
+
+        Returns
+        -------
+        ARX
+        """
+        from ._arx import ARX
+
+        na, nb, nk = self.best if order is None else tuple(int(v) for v in order)
+        own = max(na, nk + nb - 1)
+        return ARX(na, nb, nk).fit(self.data[self.start - own:])
 
     def __repr__(self):
         return f"OrderSelection(best (na, nb, nk)={self.best}, criterion={self.criterion!r})"
@@ -315,41 +367,63 @@ def _orders(value, name, low):
     return sorted({check_int(v, name, low=low) for v in vals})
 
 
-def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
+def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None):
     r"""ARX order search: MATLAB's ``arxstruc`` and ``selstruc``.
 
     Every structure (na, nb, nk) of the grid ``na × nb × nk`` is fitted by
-    least squares on **one shared regressor matrix**: the columns
+    least squares on the estimation record on **one shared regressor
+    matrix**: the columns
     :math:`-y_{k-1}, \dots, -y_{k-\max n_a}, u_{k-\min n_k}, \dots,
     u_{k-\max n_k-\max n_b+1}` are built once over the common rows
     :math:`k = s, \dots, N-1`, :math:`s = \max(\max n_a, \max n_k + \max n_b - 1)`,
     and each structure is one QR (:func:`adaptid.lstsq`) of its columns,
-    so every loss is over the same N − s samples and comparable. With
-    V = SSR/(N − s) and d = na + nb:
+    so every loss is over the same samples and comparable.
+
+    ``loss`` is ``arxstruc``'s: with ``validation``, the **validation
+    loss** :math:`V_v = \frac1{N_v}\sum_k \varepsilon_k^2`, the one-step
+    prediction errors :math:`\varepsilon_k = y_k - \varphi_k^T\hat\theta`
+    of the model fitted on ``data``, over the validation rows
+    :math:`k = s, \dots, N_v - 1` (:math:`N_v` of them, the same for every
+    structure); without it, the estimation loss V = SSR/(N − s).
+
+    AIC and FPE are those of :meth:`ARX.summary` (one definition in
+    adaptid), from the estimation loss V = SSR/n over the n = N − s common
+    rows and d = na + nb:
 
     .. math::
 
-        \mathrm{AIC} = N\log V + 2d + N(\log 2\pi + 1),\qquad
-        \mathrm{FPE} = V\,\frac{1 + d/N}{1 - d/N}
+        \mathrm{AIC} = -2\ell + 2d = n\log V + 2d + n(\log 2\pi + 1),\qquad
+        \mathrm{FPE} = V\,\frac{1 + d/n}{1 - d/n}
 
-    (Ljung 1999, sec. 16.4), and with ``validation`` the simulation fit %
-    on it (zero initial conditions).
+    (ℓ the Gaussian log-likelihood at σ² = V; Ljung 1999, sec. 16.4).
+    ``result.model()`` fits the chosen structure on exactly these rows,
+    and its ``summary()`` reports the same AIC; ``ARX(*best).fit(data)``
+    uses its own, longer, rows and so a larger n (its AIC differs by that
+    alone). With ``validation`` the simulation fit % on it (zero initial
+    conditions) is reported too.
 
     Parameters
     ----------
-    data : IDData, (y, u) tuple or DataFrame (output column first)
-        Estimation record, one output and one input.
+    data : IDData, (y, u) tuple, DataFrame (output column first), or y
+        Estimation record, one output and one input; arrays may come as
+        two arguments ``select_order(y, u, ...)`` (the one input
+        convention of the models' ``fit``).
+    u : array_like or pandas, optional
+        The input when ``data`` is the output.
     na, nb, nk : int or sequence of int
         The grid (na ≥ 0, nb ≥ 1, nk ≥ 0).
-    criterion : {"aic", "fpe", "validation"}
-        The smallest AIC or FPE, or the largest validation fit.
+    criterion : {"aic", "fpe", "loss", "validation"}
+        The smallest AIC, FPE or ``loss`` (with ``validation``, MATLAB's
+        ``selstruc(V, 0)``: the smallest validation loss), or the largest
+        validation simulation fit.
     validation : IDData, (y, u) or DataFrame, optional
-        Required by ``criterion="validation"``.
+        Required by ``criterion="validation"``. Longer than s samples.
 
     Returns
     -------
     OrderSelection
-        ``table`` (DataFrame when pandas is there) and ``best`` = (na, nb, nk).
+        ``table`` (DataFrame when pandas is there), ``best`` = (na, nb, nk)
+        and ``model()``.
 
     Examples
     --------
@@ -365,11 +439,11 @@ def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
     """
     from .._lstsq import lstsq
 
-    data = _as_iddata(data)
+    data = _as_iddata(data, "data", u)
     _single_output(data)
     if data.n_inputs != 1:
         raise param_error("data", "a record with one input", f"<{data.n_inputs} inputs>")
-    criterion = check_choice(criterion, "criterion", ("aic", "fpe", "validation"))
+    criterion = check_choice(criterion, "criterion", ("aic", "fpe", "loss", "validation"))
     nas, nbs, nks = _orders(na, "na", 0), _orders(nb, "nb", 1), _orders(nk, "nk", 0)
     if criterion == "validation" and validation is None:
         raise param_error("validation", "a record when criterion='validation'", None)
@@ -386,13 +460,22 @@ def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
         need = s + na_max + max(nbs)
         raise param_error("data", f"longer than the largest structure needs (> {need} samples)",
                           f"<{N} samples>")
-    rows = np.arange(s, N)
-    # the shared regressor matrix: -y lags 1..na_max, then u lags nk_min..ulag_max
-    Y_cols = (np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max
-              else np.zeros((rows.size, 0)))
-    U_cols = np.column_stack([u[rows - j] for j in range(nk_min, ulag_max + 1)])
-    target = y[rows]
-    n_rows = rows.size
+    if val is not None and len(val) <= s:
+        raise param_error("validation", f"longer than the largest lag (> {s} samples)",
+                          f"<{len(val)} samples>")
+
+    def shared(y, u):
+        """The shared regressor matrix: -y lags 1..na_max, then u lags nk_min..ulag_max."""
+        rows = np.arange(s, y.size)
+        Y_cols = (np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max
+                  else np.zeros((rows.size, 0)))
+        U_cols = np.column_stack([u[rows - j] for j in range(nk_min, ulag_max + 1)])
+        return Y_cols, U_cols, y[rows]
+
+    Y_cols, U_cols, target = shared(y, u)
+    if val is not None:
+        Yv_cols, Uv_cols, target_v = shared(val.y, val.u)
+    n_rows = target.size
     out = {key: [] for key in ("na", "nb", "nk", "n_params", "loss", "aic", "fpe", "fit_validation")}
     for a, b, k in itertools.product(nas, nbs, nks):
         cols = np.hstack([Y_cols[:, :a], U_cols[:, k - nk_min: k - nk_min + b]])
@@ -401,18 +484,20 @@ def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
         V = float(res.residuals @ res.residuals) / n_rows
         aic = n_rows * np.log(V) + 2 * d + n_rows * (np.log(2 * np.pi) + 1.0)
         fpe = V * (1 + d / n_rows) / (1 - d / n_rows)
-        fv = np.nan
+        fv, loss = np.nan, V
         if val is not None:
             from scipy.signal import lfilter
 
             th = np.asarray(res.theta)
+            e_v = target_v - np.hstack([Yv_cols[:, :a], Uv_cols[:, k - nk_min: k - nk_min + b]]) @ th
+            loss = float(e_v @ e_v) / e_v.size
             A = np.concatenate([[1.0], th[:a]])
             B = np.concatenate([np.zeros(k), th[a:]])
             fv = fit_percent(val.y, lfilter(B, A, val.u))
-        for key, v in zip(out, (a, b, k, d, V, aic, fpe, fv)):
+        for key, v in zip(out, (a, b, k, d, loss, aic, fpe, fv)):
             out[key].append(v)
     table = {key: np.asarray(v) for key, v in out.items()}
-    score = {"aic": table["aic"], "fpe": table["fpe"],
+    score = {"aic": table["aic"], "fpe": table["fpe"], "loss": table["loss"],
              "validation": -table["fit_validation"]}[criterion]
     if criterion == "validation" and not np.isfinite(score).any():
         raise param_error("validation", "a record on which some structure's simulation is finite",
@@ -425,4 +510,4 @@ def select_order(data, *, na, nb, nk=1, criterion="aic", validation=None):
         pass
     else:
         table = pd.DataFrame(table)
-    return OrderSelection(table=table, best=best, criterion=criterion)
+    return OrderSelection(table=table, best=best, criterion=criterion, start=s, data=data)
