@@ -11,13 +11,6 @@ from .._arx import ARX
 __all__ = ["iv4", "ivx"]
 
 
-def _signals(data, u):
-    if isinstance(data, tuple) and u is None:
-        if len(data) != 2:
-            raise param_error("data", "an IDData or a pair (y, u)", f"<a {len(data)}-tuple>")
-        data, u = data
-    return data, u
-
 
 def _instrument_rows(model, x, U):
     """Instrument rows built like the ARX rows with x in place of y: [-x lags, u lags]."""
@@ -98,9 +91,8 @@ def ivx(data, na, nb, nk=1, instruments=None, *, u=None):
     >>> bool(np.allclose(m.theta, [-0.8, 1.0], atol=0.05))
     True
     """
-    y, u = _signals(data, u)
     model = ARX(na, nb, nk)
-    yv, U = model._data(y, u, fitting=True)
+    yv, U = model._data(data, u, fitting=True)
     reg, Phi = model._fixed_regression(yv, U, model._single)
     if instruments is None:
         raise param_error("instruments", "a signal shaped like y or a matrix of instrument rows",
@@ -172,9 +164,8 @@ def iv4(data, na, nb, nk=1, *, u=None):
     """
     from ..._lstsq import lstsq
 
-    y, u = _signals(data, u)
     model = ARX(na, nb, nk)
-    yv, U = model._data(y, u, fitting=True)
+    yv, U = model._data(data, u, fitting=True)
     reg, Phi = model._fixed_regression(yv, U, model._single)
     # stage 1: least squares
     theta = np.asarray(lstsq(Phi, reg.y).theta, dtype=np.float64)

@@ -481,14 +481,13 @@ class NARX:
         yb, ub = self._base_layout()
         yi = np.array([i for i, _ in yb], dtype=np.intp)
         yj = np.array([j for _, j in yb], dtype=np.intp)
-        ui = np.array([i for i, _ in ub], dtype=np.intp)
-        uj = np.array([j for _, j in ub], dtype=np.intp)
+        n_u = len(ub)
         Xu = np.column_stack([np.ones(N)] + ([U[np.arange(N) - j, i] for i, j in ub]
                                                if ub else []))
         combos = [r.combos for r in self.results]
         thetas = [r.theta[: r.n_process] for r in self.results]
         ny = yi.size
-        xt = np.empty(1 + ny + ui.size)
+        xt = np.empty(1 + ny + n_u)
         with np.errstate(over="ignore", invalid="ignore"):
             for k in range(L, N):
                 xt[0] = 1.0

@@ -250,13 +250,6 @@ def _fit_regularised(model, Phi, yv, kernel, sizes, hyperparameters, noise_varia
     return model
 
 
-def _signals(data, u):
-    if isinstance(data, tuple) and u is None:
-        if len(data) != 2:
-            raise param_error("data", "an IDData or a pair (y, u)", f"<a {len(data)}-tuple>")
-        data, u = data
-    return data, u
-
 
 def impulseest(data, n, *, u=None, kernel="TC", nk=0, hyperparameters=None,
                noise_variance=None):
@@ -332,12 +325,11 @@ def impulseest(data, n, *, u=None, kernel="TC", nk=0, hyperparameters=None,
     >>> bool(np.max(np.abs(m.theta - g)) < 0.1)
     True
     """
-    y, u = _signals(data, u)
     n = check_int(n, "n", low=1)
     nk = check_int(nk, "nk", low=0)
     kernel = _check_kernel(kernel)
     model = ARX(0, n, nk)
-    yv, U = model._data(y, u, fitting=True)
+    yv, U = model._data(data, u, fitting=True)
     if U.shape[1] != 1:
         raise param_error("u", "one input signal", f"<{U.shape[1]} inputs>")
     reg, Phi = model._fixed_regression(yv, U, model._single)
@@ -404,10 +396,9 @@ def arx_regul(data, na, nb, nk=1, *, u=None, kernel="TC", hyperparameters=None,
     >>> bool(np.allclose(m.theta[:4], [-1.2, 0.5, 1.0, 0.5], atol=0.1))
     True
     """
-    y, u = _signals(data, u)
     kernel = _check_kernel(kernel)
     model = ARX(na, nb, nk)
-    yv, U = model._data(y, u, fitting=True)
+    yv, U = model._data(data, u, fitting=True)
     if min(model._nb) < 1:
         raise param_error("nb", ">= 1 for every input", nb)
     reg, Phi = model._fixed_regression(yv, U, model._single)
