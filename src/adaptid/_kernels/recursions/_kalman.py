@@ -9,13 +9,13 @@ and leaves the state untouched otherwise (the caller then raises).
 """
 
 import numpy as np
-from numba import prange
 
-from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ..._config import NJIT, NJIT_INLINE, njit
 from ..toolchain._dims import dim
 from ._bierman import _bierman_apply, _bierman_prep, _d_below, _finite_row, _gain_step, \
-    _prior_errors, _segment_start, _store, _time_update, _views
+    _prior_errors, _store, _time_update, _views
 from ._entries import Entries
+from ._parallel import batched, segments
 
 
 @njit(**NJIT_INLINE)
@@ -70,21 +70,8 @@ def kalman_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     return _kalman_core(S, Phi, Y, w, Th, E, skipped, opt, mat, ntag, ptag)
 
 
-@njit(**NJIT_PARALLEL)
-def kalman_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
-    for s in prange(Phi.shape[0]):
-        codes[s] = _kalman_core(S[s], Phi[s], Y[s], w[s], Th[s], E[s], skipped[s], opt, mat,
-                                ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def kalman_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat, codes,
-                        ntag, ptag):
-    """G Kalman streams back to back, each from S0 (see :func:`._rls.rls_run_segments`)."""
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _kalman_core(S, Phi[a:z], Y[a:z], w[a:z], Th[a:z], E[a:z], skipped[a:z],
-                                opt, mat, ntag, ptag)
+kalman_run_batched = batched(kalman_run, "kalman_run_batched")
+kalman_run_segments = segments(kalman_run, "kalman_run_segments")
 
 
 #: this module's entry points, by the name adaptid._kernels gives them

@@ -18,24 +18,23 @@ Per sample (Ljung & Söderström 1983, eqs. 2.19–2.20, on U-D factors):
 """
 
 import numpy as np
-from numba import prange
 
-from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ..._config import NJIT, NJIT_INLINE, njit
 from ..toolchain._dims import dim
 from ..toolchain._scratch import scratch, scratch2, small_scratch
-from ._bierman import _bierman_apply_pairs, _bierman_prep, _copy_factor, _segment_start, \
-    _views
+from ._bierman import _bierman_apply_pairs, _bierman_prep, _copy_factor, _views
 from ._entries import Entries
-from ._rollstats import rls_hook, sub
+from ._parallel import batched, segments
+from ._rollstats import rls_hook
 from ._step import views
 
 @njit(**NJIT)
 def _rls_core(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag):
-    """:func:`_rls_body` compiled once per types and tags, called (not inlined) by the
-    parallel entries and other kernels: numba's inlining copies the body's IR (a fifth
+    """:func:`_rls_body` compiled once per types and tags, called (not inlined) by
+    other kernels (:mod:`._diffuse`): numba's inlining copies the body's IR (a fifth
     of a kernel's compile time). ``rls_run`` inlines the body instead: a call costs
     the array arguments' reference counts, a visible part of an ``update``
-    (``benchmarks/bench_update.py``)."""
+    (``benchmarks/bench_update.py``); the parallel entries call ``rls_run``."""
     return _rls_body(S, Phi, Y, lam, w, Th, E, skipped, St, dthr, ntag, ptag)
 
 
@@ -127,26 +126,8 @@ def rls_step(S, W, ntag, ptag):
     return _rls_body(S, Phi, Y, lam, w, Th, E, skipped, None, dthr, ntag, ptag)
 
 
-@njit(**NJIT_PARALLEL)
-def rls_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
-    """B independent RLS streams in parallel; ``codes[b]`` as :func:`rls_run` returns."""
-    for s in prange(Phi.shape[0]):
-        codes[s] = _rls_core(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s], skipped[s],
-                             sub(St, s), opt[0], ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def rls_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
-                     codes, ntag, ptag):
-    """G streams stored back to back (rows offsets[g]:offsets[g+1]), each from S0.
-
-    Parallel over segments; segment g is bit for bit :func:`rls_run` from S0.
-    ``St`` (statistics) is not supported here: it must be None.
-    """
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _rls_core(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z], E[a:z],
-                             skipped[a:z], None, opt[0], ntag, ptag)
+rls_run_batched = batched(rls_run, "rls_run_batched", stats=True)
+rls_run_segments = segments(rls_run, "rls_run_segments")
 
 
 #: this module's entry points, by the name adaptid._kernels gives them

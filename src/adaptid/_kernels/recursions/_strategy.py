@@ -8,14 +8,13 @@ and ``Lk`` the λₖ applied at each sample (NaN where skipped); ``St`` is unuse
 """
 
 import numpy as np
-from numba import prange
 
-from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
+from ..._config import NJIT, NJIT_INLINE, njit
 from ..toolchain._dims import dim
 from ._bierman import _add, _bierman_apply, _bierman_prep, _finite_row, _forget, _form_P, \
-    _gain_step, _max_diag_P, _prior_errors, _segment_start, _store, _trace_P, _udu_factor, \
-    _views
+    _gain_step, _max_diag_P, _prior_errors, _store, _trace_P, _udu_factor, _views
 from ._entries import Entries
+from ._parallel import batched, segments
 
 @njit(**NJIT_INLINE)
 def _strategy_step(theta, U, D, phi, y, e, wk, lamk, mode, fp, pmax, f, v, b, Pm, W, NP, p):
@@ -167,20 +166,8 @@ def strategy_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag
     return _rls_strategy_stream(S, Phi, Y, lam, w, Th, E, skipped, Lk, opt, mat, ntag, ptag)
 
 
-@njit(**NJIT_PARALLEL)
-def strategy_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
-    for s in prange(Phi.shape[0]):
-        codes[s] = _rls_strategy_stream(S[s], Phi[s], Y[s], lam[s], w[s], Th[s], E[s],
-                                        skipped[s], Lk[s], opt, mat, ntag, ptag)
-
-
-@njit(**NJIT_PARALLEL)
-def strategy_run_segments(S0, Sout, Phi, Y, offsets, lam, w, Th, E, skipped, Lk, St, opt, mat,
-                          codes, ntag, ptag):
-    for g in prange(offsets.shape[0] - 1):
-        a, z, S = _segment_start(S0, Sout, offsets, g)
-        codes[g] = _rls_strategy_stream(S, Phi[a:z], Y[a:z], lam[a:z], w[a:z], Th[a:z],
-                                        E[a:z], skipped[a:z], Lk[a:z], opt, mat, ntag, ptag)
+strategy_run_batched = batched(strategy_run, "strategy_run_batched")
+strategy_run_segments = segments(strategy_run, "strategy_run_segments")
 
 
 #: this module's entry points, by the name adaptid._kernels gives them

@@ -200,6 +200,11 @@ def window_run(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, ntag, ptag):
     return _window_core(S, Phi, Y, lam, w, Th, E, skipped, St, int(opt[1]), opt[2], ntag, ptag)
 
 
+# The parallel wrappers stay written out here instead of coming from
+# _parallel.batched / segments (window_run through the factory's templates):
+# bit for bit the same results, but the streams ran consistently slower at n = 8
+# (not at n = 4) in same-process A/B runs of the two wrappers, presumably as LLVM
+# then inlines _window_core differently into the prange loop.
 @njit(**NJIT_PARALLEL)
 def window_run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
     M = int(opt[1])
