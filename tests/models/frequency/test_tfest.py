@@ -141,3 +141,17 @@ def test_results_and_errors():
     matplotlib.use("Agg")
     fig = m.plot()
     assert fig.axes[0].get_ylabel() == "magnitude (dB)"
+
+
+def test_etfe_then_tfest_and_time_data_agree_with_truth():
+    from adaptid.models import etfe
+
+    rng = np.random.default_rng(4)
+    u = rng.standard_normal(4000)
+    y = lfilter([0.0, 0.5, 0.2], [1.0, -1.2, 0.5], u) + 0.05 * rng.standard_normal(4000)
+    data = IDData(y, u, 0.1)
+    truth = np.array([0.5, 0.2, -1.2, 0.5])
+    for m in (tfest(etfe(data), 2, 1), tfest(data, 2, 1)):
+        assert m.dt == 0.1
+        # within 5 sd of the truth (first-order sd from the final Jacobian)
+        assert np.all(np.abs(m.theta - truth) < 5 * m.stderr)

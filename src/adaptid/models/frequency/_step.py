@@ -115,7 +115,11 @@ class StepResponse:
                 for i, yn in enumerate(self.y_names) for j, un in enumerate(self.u_names)]
 
     def to_frame(self):
-        """Long table: ``t``, ``response``, ``sd`` (when known); ``output``/``input`` when several."""
+        """The response as a pandas table.
+
+        Columns ``t``, ``response`` and ``sd`` (when known); with several
+        channels also ``output`` and ``input`` (long format).
+        """
         try:
             import pandas as pd
         except ImportError as err:  # pragma: no cover - depends on the extra
@@ -133,7 +137,20 @@ class StepResponse:
         return frames[0] if len(frames) == 1 else pd.concat(frames, ignore_index=True)
 
     def plot(self, sd=3, *, fig=None):
-        """Step response(s) as stairs with ±sd bands; returns the matplotlib Figure."""
+        """Step response(s) as stairs with ±sd bands.
+
+        Parameters
+        ----------
+        sd : float
+            Width of the bands in standard deviations (default 3); 0 draws none.
+        fig : matplotlib Figure, optional
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            One panel per channel, titled ``input → output``, the time axis
+            in ``time_unit``.
+        """
         sd = check_scalar(sd, "sd", low=0.0)
         try:
             import matplotlib.pyplot as plt
