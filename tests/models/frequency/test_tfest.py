@@ -155,3 +155,22 @@ def test_etfe_then_tfest_and_time_data_agree_with_truth():
         assert m.dt == 0.1
         # within 5 sd of the truth (first-order sd from the final Jacobian)
         assert np.all(np.abs(m.theta - truth) < 5 * m.stderr)
+
+
+def test_weights():
+    H0 = _cfr([1.0, 2.0], [1.0, 3.0, 5.0], W)
+    wk = 1.0 / (1.0 + W)
+    m = tfest(FrequencyResponse(W, H0), 2, weights=wk)      # noise-free: still exact
+    np.testing.assert_allclose(m.den, [1.0, 3.0, 5.0], atol=1e-8)
+    # weights = 1/sd: the weighted residuals are white, the sd matches the spread
+    rng = np.random.default_rng(5)
+    sd = 0.002 + 0.02 * np.abs(H0)
+    est, ses = [], []
+    for _ in range(200):
+        H = H0 + sd * (rng.standard_normal(W.size) + 1j * rng.standard_normal(W.size))
+        m = tfest(FrequencyResponse(W, H), 2, weights=1.0 / sd)
+        est.append(m.theta)
+        ses.append(m.stderr)
+    np.testing.assert_allclose(np.std(est, axis=0), np.mean(ses, axis=0), rtol=0.25)
+    with pytest.raises(ValueError, match="weights"):
+        tfest(FrequencyResponse(W, H0), 2, weights=-wk)

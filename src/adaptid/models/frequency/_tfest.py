@@ -1,52 +1,6 @@
 r"""Transfer-function estimation: :func:`tfest` and :class:`TransferFunctionModel`.
 
-From a frequency response (:class:`FrequencyResponse`, continuous or
-discrete) the fit is in three stages:
-
-1. **Levy's linear least squares** (Levy 1959): with :math:`G = N/D`,
-   minimise :math:`\sum_k |N(x_k) - H_k D(x_k)|^2` over the numerator and
-   denominator coefficients (D monic), a linear problem in real
-   coefficients (real and imaginary parts stacked). Continuous-time fits
-   use the normalised variable :math:`s/\omega_c` (:math:`\omega_c` the
-   largest frequency) for conditioning; the coefficients are mapped back.
-2. **Sanathanan–Koerner iterations** (Sanathanan & Koerner 1963): repeat
-   the linear fit with weights :math:`1/|D_{prev}(x_k)|^2`, which removes
-   Levy's bias towards high frequencies; at most 50 iterations, until the
-   relative change of the coefficients is below 1e-10.
-3. **Nonlinear least squares** (``refine=True``): minimise
-   :math:`\sum_k |G(x_k;\theta) - H_k|^2` with
-   :func:`scipy.optimize.least_squares` (real and imaginary parts of the
-   residual), started from the SK estimate. The covariance of the
-   parameters is :math:`\hat\sigma^2(J^\top J)^{-1}` with J that problem's
-   Jacobian and :math:`\hat\sigma^2 = \lVert r\rVert^2/(2n_w - d)`.
-
-From time-domain data (:class:`IDData`, discrete time) the model is an
-output-error model: initialised by the Steiglitz–McBride iterations of
-:class:`adaptid.models.OE` (``fit(refine=False)``), then refined by
-minimising the simulation error :math:`\sum_k (y_k - \hat y_k(\theta))^2`
-over the whole record with zero initial conditions (signals zero before
-the first sample, the convention of ``simulate``), with the analytic
-Jacobian (:math:`\partial\hat y/\partial b_j = q^{-n_k-j}u/F`,
-:math:`\partial\hat y/\partial a_j = -q^{-j}\hat y/F`); the covariance
-is :math:`\hat\sigma^2(J^\top J)^{-1}` from that Jacobian.
-
-Conventions. Continuous time (``dt=None``):
-
-.. math::
-
-    G(s) = e^{-s\tau}\frac{b_{n_z}s^{n_z} + \dots + b_0}{s^{n_p} + a_{n_p-1}s^{n_p-1} + \dots + a_0},
-
-with :math:`n_z < n_p` unless ``feedthrough=True`` (then :math:`n_z \le n_p`).
-Discrete time:
-
-.. math::
-
-    G(z) = z^{-n_k}\frac{b_0 + b_1z^{-1} + \dots + b_{n_z}z^{-n_z}}{1 + a_1z^{-1} + \dots + a_{n_p}z^{-n_p}},
-    \qquad n_k = \text{delay} + (0 \text{ if feedthrough else } 1),
-
-i.e. an OE model with ``nb = nz + 1``, ``nf = np`` and ``nk`` as above.
-The parameter vector is ``[b…, a…]`` in the order written above (numerator
-first, by increasing power of :math:`s`, or of :math:`z^{-1}`).
+The algorithm and the conventions are in :func:`tfest`'s Notes.
 """
 
 from __future__ import annotations
@@ -82,7 +36,7 @@ class TransferFunctionModel:
         :math:`e^{-s\tau}`). Discrete: in samples (already contained in
         ``num``'s leading zeros).
     theta : ndarray, shape (d,)
-        ``[b…, a…]`` (see :mod:`adaptid.models.frequency._tfest`).
+        ``[b…, a…]`` (see :func:`tfest`).
     cov : ndarray, shape (d, d), or None
     np_, nz, feedthrough
     """
@@ -280,7 +234,8 @@ def _linear_fit(H, Pn, Pd, lead, weight):
     return sol / scale
 
 
-def tfest(data, np, nz=None, *, dt=None, delay=0, feedthrough=False, refine=True):  # noqa: C901
+def tfest(data, np, nz=None, *, dt=None, delay=0, feedthrough=False, refine=True,  # noqa: C901
+          weights=None):
     r"""Estimate a transfer function from a frequency response or from time-domain data.
 
     Parameters
@@ -308,6 +263,10 @@ def tfest(data, np, nz=None, *, dt=None, delay=0, feedthrough=False, refine=True
         Steiglitz–McBride for time data) by nonlinear least squares
         (default True); the covariance is computed either way from the
         final residual's Jacobian.
+    weights : array_like, shape (nw,), optional
+        Frequency data: positive weights :math:`w_k` of the residuals
+        (e.g. ``1 / response.magnitude_sd``); every stage then minimises
+        :math:`\sum_k w_k^2|\cdot|^2`. Default: all 1.
 
     Returns
     -------
@@ -315,10 +274,53 @@ def tfest(data, np, nz=None, *, dt=None, delay=0, feedthrough=False, refine=True
 
     Notes
     -----
-    The stages and the initialisation are described in
-    :mod:`adaptid.models.frequency._tfest`: Levy's linear fit initialises
-    Sanathanan–Koerner, whose result initialises the nonlinear least squares;
-    time-domain data go through :class:`adaptid.models.OE`.
+    From a frequency response (:class:`FrequencyResponse`, continuous or
+    discrete) the fit is in three stages:
+
+    1. **Levy's linear least squares** (Levy 1959): with :math:`G = N/D`,
+       minimise :math:`\sum_k |N(x_k) - H_k D(x_k)|^2` over the numerator and
+       denominator coefficients (D monic), a linear problem in real
+       coefficients (real and imaginary parts stacked). Continuous-time fits
+       use the normalised variable :math:`s/\omega_c` (:math:`\omega_c` the
+       largest frequency) for conditioning; the coefficients are mapped back.
+    2. **Sanathanan–Koerner iterations** (Sanathanan & Koerner 1963): repeat
+       the linear fit with weights :math:`1/|D_{prev}(x_k)|^2`, which removes
+       Levy's bias towards high frequencies; at most 50 iterations, until the
+       relative change of the coefficients is below 1e-10.
+    3. **Nonlinear least squares** (``refine=True``): minimise
+       :math:`\sum_k w_k^2|G(x_k;\theta) - H_k|^2` with
+       :func:`scipy.optimize.least_squares` (real and imaginary parts of the
+       residual), started from the SK estimate. The covariance of the
+       parameters is :math:`\hat\sigma^2(J^\top J)^{-1}` with J that problem's
+       Jacobian and :math:`\hat\sigma^2 = \lVert r\rVert^2/(2n_w - d)`.
+
+    From time-domain data (:class:`IDData`, discrete time) the model is an
+    output-error model: initialised by the Steiglitz–McBride iterations of
+    :class:`adaptid.models.OE` (``fit(refine=False)``), then refined by
+    minimising the simulation error :math:`\sum_k (y_k - \hat y_k(\theta))^2`
+    over the whole record with zero initial conditions (signals zero before
+    the first sample, the convention of ``simulate``), with the analytic
+    Jacobian (:math:`\partial\hat y/\partial b_j = q^{-n_k-j}u/F`,
+    :math:`\partial\hat y/\partial a_j = -q^{-j}\hat y/F`); the covariance
+    is :math:`\hat\sigma^2(J^\top J)^{-1}` from that Jacobian.
+
+    Conventions. Continuous time (``dt=None``):
+
+    .. math::
+
+        G(s) = e^{-s\tau}\frac{b_{n_z}s^{n_z} + \dots + b_0}{s^{n_p} + a_{n_p-1}s^{n_p-1} + \dots + a_0},
+
+    with :math:`n_z < n_p` unless ``feedthrough=True`` (then :math:`n_z \le n_p`).
+    Discrete time:
+
+    .. math::
+
+        G(z) = z^{-n_k}\frac{b_0 + b_1z^{-1} + \dots + b_{n_z}z^{-n_z}}{1 + a_1z^{-1} + \dots + a_{n_p}z^{-n_p}},
+        \qquad n_k = \text{delay} + (0 \text{ if feedthrough else } 1),
+
+    i.e. an OE model with ``nb = nz + 1``, ``nf = np`` and ``nk`` as above.
+    The parameter vector is ``[b…, a…]`` in the order written above (numerator
+    first, by increasing power of :math:`s`, or of :math:`z^{-1}`).
 
     References
     ----------
@@ -363,12 +365,17 @@ def tfest(data, np, nz=None, *, dt=None, delay=0, feedthrough=False, refine=True
     Pn, Pd, lead = _bases(x, n_z + 1, n_p, continuous, nk, 0, w)
     if continuous and delay:
         Pn = Pn * numpy.exp(-1j * w * delay)[:, None]
+    if weights is None:
+        wk = numpy.ones(w.size)
+    else:
+        wk = as_float_array(weights, "weights", shape=(w.size,))
+        if numpy.any(wk <= 0):
+            raise param_error("weights", "positive", "<a weight <= 0>")
     # 1. Levy, 2. Sanathanan–Koerner
-    weight = numpy.ones(w.size)
-    th = _linear_fit(H, Pn, Pd, lead, weight)
+    th = _linear_fit(H, Pn, Pd, lead, wk)
     for _ in range(_SK_ITER):
         D = lead + Pd @ th[n_z + 1:]
-        weight = 1.0 / numpy.maximum(numpy.abs(D), numpy.finfo(float).tiny)
+        weight = wk / numpy.maximum(numpy.abs(D), numpy.finfo(float).tiny)
         new = _linear_fit(H, Pn, Pd, lead, weight)
         done = numpy.linalg.norm(new - th) <= _SK_TOL * max(numpy.linalg.norm(new), 1.0)
         th = new
@@ -378,13 +385,13 @@ def tfest(data, np, nz=None, *, dt=None, delay=0, feedthrough=False, refine=True
     # 3. nonlinear least squares on the complex residual
     def resid(t):
         G = (Pn @ t[: n_z + 1]) / (lead + Pd @ t[n_z + 1:])
-        r = G - H
+        r = wk * (G - H)
         return numpy.concatenate([r.real, r.imag])
 
     def jac(t):
         D = lead + Pd @ t[n_z + 1:]
         G = (Pn @ t[: n_z + 1]) / D
-        J = numpy.hstack([Pn / D[:, None], -(G / D)[:, None] * Pd])
+        J = wk[:, None] * numpy.hstack([Pn / D[:, None], -(G / D)[:, None] * Pd])
         return numpy.vstack([J.real, J.imag])
 
     if refine:
