@@ -52,7 +52,10 @@ marginal likelihood), :func:`arx_regul` (regularised ARX),
 Frequency domain (subpackage :mod:`adaptid.models.frequency`):
 :class:`FrequencyResponse` (Bode with confidence bands; returned by every
 polynomial model's ``freqresp``), :func:`spa` (Blackman–Tukey spectral
-analysis), :func:`etfe` (empirical transfer-function estimate).
+analysis), :func:`etfe` (empirical transfer-function estimate),
+:func:`tfest` (transfer-function estimation, a :class:`TransferFunctionModel`),
+:class:`StepResponse` and :class:`Roots` (the polynomial models'
+``step_response``, ``poles`` and ``zeros`` with standard deviations).
 """
 
 from __future__ import annotations
@@ -79,7 +82,8 @@ from .statespace import StateSpaceModel, era, n4sid, okid
 from .nonlinear import NARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import iv4, ivx
-from .frequency import FrequencyResponse, etfe, spa
+from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
+                        etfe, spa, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 
 # The DC-motor builder lives in its own module, loaded on first use.
@@ -128,6 +132,10 @@ __all__ = [
     "FrequencyResponse",
     "spa",
     "etfe",
+    "tfest",
+    "TransferFunctionModel",
+    "StepResponse",
+    "Roots",
 ]
 
 

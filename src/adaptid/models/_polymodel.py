@@ -501,6 +501,104 @@ class _PolyModel:
                                  phase_sd=shape(psds) if psds else None,
                                  y_names=y_names, u_names=u_names)
 
+    def step_response(self, T=None):
+        r"""Step response of :math:`G_i = B_i/(A F_i)` with its standard deviation per sample.
+
+        The output after a unit step on each input at t = 0 (zero initial
+        conditions), over T samples. The standard deviation is the
+        first-order propagation of the parameter covariance with the analytic
+        Jacobian of :func:`adaptid.models.frequency._step.step_with_sd`
+        (a numerator coefficient at :math:`q^{-k}` contributes
+        :math:`q^{-k}\mathbb 1/(AF_i)`, a denominator coefficient at
+        :math:`q^{-k}` of a factor P contributes :math:`-q^{-k}s/P`); exact
+        for FIR models (s linear in θ).
+
+        Parameters
+        ----------
+        T : int, optional
+            Number of samples. Default: ten times the slowest time constant
+            :math:`-1/\ln\max|p|` (in samples, over all inputs' poles) plus
+            the numerator length, within [20, 2000]; 2000 when a pole is on or
+            outside the unit circle.
+
+        Returns
+        -------
+        StepResponse
+            ``t = k·dt``; ``response`` and ``sd`` of shape (T,) for one input,
+            (1, m, T) for m inputs (``sd`` None without ``cov``).
+        """
+        from .frequency._step import StepResponse, check_length, default_length, step_with_sd
+
+        self._check_fitted()
+        structure = self._freq_structure()
+        if T is None:
+            T = 0
+            for num, dens in structure:
+                D = np.ones(1)
+                for p, _ in dens:
+                    D = np.convolve(D, p)
+                T = max(T, default_length(num[0], D))
+        else:
+            T = check_length(T)
+        cov = getattr(self, "cov", None)
+        ss, sds = [], []
+        for (num, num_par), dens in structure:
+            s, sd = step_with_sd(num, num_par, dens, T, cov)
+            ss.append(s)
+            sds.append(sd)
+        y_names, u_names = self._freq_names()
+        u_names = u_names or tuple(f"u{i + 1}" for i in range(len(ss)))
+        if len(ss) == 1:
+            resp, sd = ss[0], sds[0]
+        else:
+            resp = np.stack(ss)[None]
+            sd = None if cov is None else np.stack(sds)[None]
+        return StepResponse(np.arange(T) * self.dt, resp, sd, dt=self.dt, y_names=y_names,
+                            u_names=u_names if len(ss) > 1 else u_names[:1])
+
+    def _roots(self, which):
+        from .frequency._roots import roots_with_sd
+
+        self._check_fitted()
+        cov = getattr(self, "cov", None)
+        out = []
+        for num, dens in self._freq_structure():
+            factors = [num] if which == "zeros" else dens
+            out.append(roots_with_sd(factors, cov, self.theta.size))
+        return out[0] if len(out) == 1 else out
+
+    def poles(self):
+        r"""Poles (in z) of :math:`G_i = B_i/(A F_i)` with first-order standard deviations.
+
+        The roots of A and of :math:`F_i` (as polynomials in z:
+        :math:`z^{n}A(z^{-1})`); for a simple root r of
+        :math:`p(z) = \sum_j c_j z^{n-j}`,
+        :math:`\partial r/\partial c_j = -r^{n-j}/p'(r)`, and the
+        covariance gives the standard deviations of Re r and Im r
+        (see :mod:`adaptid.models.frequency._roots`). Multiple roots get an
+        infinite (or NaN) standard deviation.
+
+        Returns
+        -------
+        Roots or list of Roots
+            ``values``, ``sd_real``, ``sd_imag``; one per input when there
+            are several inputs.
+        """
+        return self._roots("poles")
+
+    def zeros(self):
+        r"""Finite zeros (in z) of :math:`B_i` with first-order standard deviations.
+
+        The roots of :math:`b_0 z^{n_b-1} + \dots + b_{n_b-1}` (the input
+        delay :math:`q^{-n_k}` contributes no finite zero here); standard
+        deviations as in :meth:`poles`.
+
+        Returns
+        -------
+        Roots or list of Roots
+        """
+        return self._roots("zeros")
+
     def rsample(self, n, seed=None):
         r"""n models with parameters drawn from :math:`N(\hat\theta, \Sigma)`: MATLAB's ``rsample``.
 

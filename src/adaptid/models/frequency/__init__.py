@@ -8,12 +8,20 @@ r"""Frequency-domain models: responses with their uncertainty and nonparametric 
 * :func:`spa` — Blackman–Tukey spectral analysis with a Hann lag window
   (MATLAB's ``spa``);
 * :func:`etfe` — the empirical transfer-function estimate Y(ω)/U(ω),
-  optionally smoothed (MATLAB's ``etfe``).
+  optionally smoothed (MATLAB's ``etfe``);
+* :func:`tfest` — transfer-function estimation (Levy, Sanathanan–Koerner,
+  nonlinear least squares) returning a :class:`TransferFunctionModel`;
+* :class:`StepResponse` and :class:`Roots` — the polynomial models'
+  ``step_response()``, ``poles()`` and ``zeros()`` with standard deviations.
 """
 
 from __future__ import annotations
 
 from ._response import FrequencyResponse, default_grid
+from ._roots import Roots
 from ._spectral import etfe, spa
+from ._step import StepResponse
+from ._tfest import TransferFunctionModel, tfest
 
-__all__ = ["FrequencyResponse", "spa", "etfe", "default_grid"]
+__all__ = ["FrequencyResponse", "spa", "etfe", "default_grid", "StepResponse", "Roots",
+           "tfest", "TransferFunctionModel"]
