@@ -12,9 +12,11 @@ when this module is imported, it finds the folder numba would use for the
 kernels in ``adaptid/_kernels`` (numba's own order: ``NUMBA_CACHE_DIR``, then
 the in-tree ``__pycache__``, then the user-wide ``~/.cache/numba``, each only
 if it exists or can be created and is writable) and checks that it is
-*trusted*: a directory owned by the current user or root, not writable by
-group or others, in a parent that others cannot write either (or that has the
-sticky bit). If it is, :data:`CACHE` is True and kernels are cached there;
+*trusted*: a directory (not a symbolic link) owned by the current user or
+root, not writable by group or others, every folder above it up to ``/``
+owned by the current user or root and not writable by group or others unless
+it has the sticky bit (a sticky folder of another user does not protect: its
+owner can swap anything in it). If it is, :data:`CACHE` is True and kernels are cached there;
 otherwise nothing is cached or loaded from disk and one
 :class:`~adaptid.CompilationCacheWarning` says why (a read-only install with
 an unwritable HOME then works, compiling in every process). A kernel missing
@@ -25,6 +27,18 @@ is recompiled and the entry rewritten (:func:`njit`). Loading a cached kernel
 starts numba's runtime only, not its compiler's registries
 (:mod:`adaptid._kernels.toolchain._cache`): a process whose kernels all come
 from the cache does not pay for them.
+
+This check is made once; the folder could still be swapped afterwards by
+someone who can write a folder above it. So every read of an index or code
+file re-verifies it (patch ``tolerant-cache``,
+:mod:`adaptid._kernels.toolchain._cache`): the folder is opened without
+following symbolic links and held, its owner and mode checked on the open
+descriptor, and each file opened relative to it must be a regular file of the
+user or root that group and others cannot write; otherwise nothing is
+unpickled, the kernel is compiled in memory and one
+:class:`~adaptid.CompilationCacheWarning` says why. With the patch off
+(``ADAPTID_NUMBA_PATCHES=0``) numba reads by path and only the import-time
+check protects.
 """
 
 import os
@@ -64,23 +78,59 @@ def _usable(path):
     return os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK)
 
 
+def _ancestors(path):
+    """The folders above ``path`` up to ``/``: of its absolute path and of its real
+    path (a symlinked component is judged by the folders on both sides)."""
+    out = []
+    for start in (os.path.abspath(path), os.path.realpath(path)):
+        folder = os.path.dirname(start)
+        while True:
+            if folder not in out:
+                out.append(folder)
+            up = os.path.dirname(folder)
+            if up == folder:
+                break
+            folder = up
+    return out
+
+
+def _untrusted_ancestor(path):
+    """Why a folder above ``path`` lets another user swap it, or None.
+
+    Every ancestor up to ``/`` must belong to the current user or root, and be
+    writable by group or others only with the sticky bit (which protects only
+    because the folder's owner is the user or root).
+    """
+    me = os.getuid()
+    for folder in _ancestors(path):
+        try:
+            st = os.stat(folder)
+        except OSError as err:
+            return f"is in {folder}, which cannot be inspected ({err.strerror})"
+        if st.st_uid not in (me, 0):
+            return f"is in {folder}, which belongs to another user (uid {st.st_uid})"
+        if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH) and not st.st_mode & stat.S_ISVTX:
+            return (f"is in {folder}, which others can write (without the sticky bit, "
+                    f"mode {stat.S_IMODE(st.st_mode):o})")
+    return None
+
+
 def _untrusted(path):
     """Why ``path`` is not a safe cache folder, or None if it is."""
     if not hasattr(os, "getuid"):
         return None  # no POSIX owners (Windows): the ACLs are the user's
     me = os.getuid()
     try:
-        st = os.stat(path)
-        parent = os.stat(os.path.dirname(os.path.abspath(path)))
+        st = os.lstat(path)
     except OSError as err:
         return f"cannot be inspected ({err.strerror})"
+    if stat.S_ISLNK(st.st_mode):
+        return "is a symbolic link"
     if st.st_uid not in (me, 0):
         return f"belongs to another user (uid {st.st_uid})"
     if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
         return f"is writable by group or others (mode {stat.S_IMODE(st.st_mode):o})"
-    if parent.st_mode & (stat.S_IWGRP | stat.S_IWOTH) and not parent.st_mode & stat.S_ISVTX:
-        return "is in a folder that others can write (without the sticky bit)"
-    return None
+    return _untrusted_ancestor(path)
 
 
 def cache_decision():

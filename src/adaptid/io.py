@@ -263,6 +263,10 @@ def check_writable(path, *, what="output") -> Path:
         raise DataFileError(f"{path}: the folder {parent} is not writable")
     if path.exists() and not os.access(path, os.W_OK):
         raise DataFileError(f"{path}: the file is not writable")
+    from .estimators._statefile import special_kind
+    kind = special_kind(path)
+    if kind is not None:  # a device, FIFO or socket would be replaced by a regular file
+        raise DataFileError(f"{path}: is {kind}; the {what} must be a regular file or a new name")
     return path
 
 

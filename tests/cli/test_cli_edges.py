@@ -221,3 +221,19 @@ def test_range_edges_give_correct_estimates(data):
     np.testing.assert_allclose(out["stderr"], np.sqrt(
         np.sum((y - Phi @ theta) ** 2) / (len(y) - 3) * np.diag(np.linalg.inv(Phi.T @ Phi))),
         rtol=1e-6)
+
+
+def test_save_state_onto_a_fifo_refused(data, tmp_path):
+    """Issue 32, point 2: an existing non-regular target is refused before the run."""
+    import os
+    import stat
+    path, *_ = data
+    fifo = tmp_path / "s.fifo"
+    os.mkfifo(fifo)
+    one_line_error(invoke("fit", path, *FIT, "--save-state", fifo), "--save-state", "FIFO")
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    tracks = tmp_path / "t.csv"
+    os.mkfifo(tracks)
+    one_line_error(invoke("fit", path, *FIT, "--method", "rls", "--tracks", tracks), "--tracks",
+                   "FIFO")
+    assert stat.S_ISFIFO(os.stat(tracks).st_mode)

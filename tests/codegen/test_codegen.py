@@ -705,3 +705,75 @@ def test_export_c_reads_a_gradient_state_file(tmp_path):
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "c" / "nl.c").read_text() == \
         adaptid.codegen.generate_c(est.get_state(), name="nl")[1]
+
+
+# ------------------------------------------------- issue 32, point 7: names, values, pairs
+@pytest.mark.parametrize("name", ["plant\n", "rls\n", "real", "uint32", "int32", "size", "main",
+                                  "uint64_t", "size_t", "int8_t", "_Atomic", "_Generic",
+                                  "math", "string", "stdint", "stdio", "stdlib", "float",
+                                  "limits", "Math", "fma", "NAN"])
+def test_reserved_and_header_names_refused(tmp_path, name):
+    with pytest.raises(ValueError, match="name"):
+        codegen.to_c(adaptid.RLS(2), tmp_path, name=name)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_float32_values_beyond_range_refused(tmp_path):
+    with pytest.raises(ValueError, match="D within float32's range"):
+        codegen.to_c(adaptid.RLS(2, P0=1e40), tmp_path, name="big", dtype="float32")
+    assert list(tmp_path.iterdir()) == []
+    # the same in float64 is fine, and no literal is `inf`
+    h, c = codegen.to_c(adaptid.RLS(2, P0=1e40), tmp_path, name="big")
+    assert "1e+40" in c.read_text()
+
+
+@pytest.mark.parametrize("label", ["theta", "D"])
+def test_non_finite_state_refused(tmp_path, label):
+    est = adaptid.RLS(2)
+    state = est.get_state()
+    S = np.array(state["state"], dtype=float)
+    S[0 if label == "theta" else 2 + 4] = np.nan if label == "theta" else np.inf
+    state["state"] = S
+    with pytest.raises(ValueError, match=f"finite {label}"):
+        codegen.generate_c(state, name="bad")
+
+
+def test_files_written_as_a_pair_or_not_at_all(tmp_path):
+    old = codegen.to_c(adaptid.RLS(2), tmp_path, name="pair")
+    before = old[0].read_text()
+    (tmp_path / "pair.c").unlink()
+    (tmp_path / "pair.c").mkdir()               # the .c cannot be replaced
+    with pytest.raises(OSError):
+        codegen.to_c(adaptid.RLS(3), tmp_path, name="pair")
+    assert old[0].read_text() == before          # the old header is untouched
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pair.c", "pair.h"]  # no temps
+    (tmp_path / "pair.c").rmdir()
+    h, c = codegen.to_c(adaptid.RLS(3), tmp_path, name="pair")
+    assert "PAIR_N 3" in h.read_text() and c.is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pair.c", "pair.h"]
+
+
+def test_fast_math_caveat_in_the_header(tmp_path):
+    h, _ = codegen.to_c(adaptid.RLS(2), tmp_path, name="fm")
+    assert "-ffast-math" in h.read_text()
+
+
+@pytest.mark.parametrize("name", ["int", "real", "math", "uint32"])
+def test_cli_reserved_c_names_are_one_line_exit_2(tmp_path, capsys, name):
+    from adaptid.cli import main
+    est = adaptid.RLS(2)
+    est.run(np.eye(2), [1.0, 2.0])
+    est.save_state(tmp_path / "state.npz")
+    capsys.readouterr()
+    assert main(["export-c", str(tmp_path / "state.npz"), "--out", str(tmp_path / "c"),
+                 "--name", name]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("adaptid: error: ") and "name" in err[0]
+    assert not (tmp_path / "c").exists() or list((tmp_path / "c").iterdir()) == []
+    data = tmp_path / "d.csv"
+    data.write_text("y,x0,x1\n" + "".join(f"{i},{i % 3},{i % 5}\n" for i in range(20)))
+    assert main(["fit", str(data), "--y", "y", "--phi", "x0,x1", "--export-c",
+                 str(tmp_path / "c2"), "--c-name", name]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--c-name" in err[0]
+    assert not (tmp_path / "c2").exists()

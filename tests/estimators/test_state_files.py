@@ -571,3 +571,37 @@ def test_forged_window_indices_are_refused(rng, field, value):
     st_["state"][o + field] = value
     with pytest.raises(ValueError, match="window state"):
         SlidingWindowRLS.from_state(st_)
+
+
+# ------------------------------------- issue 32, point 2: special files are not replaced
+def _special(tmp_path, kind):
+    import socket
+    import stat as st
+    path = tmp_path / f"target-{kind}"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "char device":
+        if os.getuid() != 0:
+            pytest.skip("mknod needs root")
+        os.mknod(path, 0o666 | st.S_IFCHR, os.makedev(1, 3))  # a /dev/null of our own
+    elif kind == "socket":
+        sock = socket.socket(socket.AF_UNIX)
+        sock.bind(str(path))
+        sock.close()
+    elif kind == "symlink to a fifo":
+        os.mkfifo(tmp_path / "fifo-behind")
+        os.symlink(tmp_path / "fifo-behind", path)
+    return path
+
+
+@pytest.mark.parametrize("kind", ["fifo", "char device", "socket", "symlink to a fifo"])
+def test_save_state_refuses_special_targets(tmp_path, kind):
+    """A device, FIFO or socket (or a symlink to one) is not replaced by a regular
+    file: as root, ``save_state("/dev/null")`` would otherwise replace /dev/null."""
+    path = _special(tmp_path, kind)
+    before = os.stat(path).st_mode
+    est = RLS(2)
+    with pytest.raises(ValueError, match="path must be a regular file"):
+        est.save_state(path)
+    assert os.stat(path).st_mode == before
+    assert not [p for p in os.listdir(tmp_path) if p.endswith(".tmp")]

@@ -54,6 +54,11 @@ def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume,
                            "filtered derivatives); use --y/--phi with the regressor columns")
         if not c_name.isidentifier() or not c_name.isascii():
             raise CLIError(f"--c-name must be a C identifier (letters, digits, _), got {c_name!r}")
+        from ..codegen._generate import check_name
+        try:  # reserved words and header names refused before the run, too
+            check_name(c_name)
+        except ValueError as err:
+            raise CLIError(f"--c-name: {err}") from None
     elif c_name != "rls":
         raise CLIError("--c-name applies with --export-c DIR only")
     if tracks is not None:

@@ -18,19 +18,81 @@ from ._rls import kalman_update, rls_update, window_update
 
 _C_KEYWORDS = frozenset("""auto break case char const continue default do double else enum extern
 float for goto if inline int long register restrict return short signed sizeof static struct
-switch typedef union unsigned void volatile while _Bool _Complex _Imaginary""".split())
+switch typedef union unsigned void volatile while _Bool _Complex _Imaginary
+_Alignas _Alignof _Atomic _Generic _Noreturn _Static_assert _Thread_local""".split())
+#: names that collide with standard typedefs, macros and functions the generated code
+#: (or a program including it) uses, or with common embedded typedefs
+_C_RESERVED = frozenset("""real main size uint8 uint16 uint32 uint64 int8 int16 int32 int64
+int8_t int16_t int32_t int64_t uint8_t uint16_t uint32_t uint64_t size_t ssize_t ptrdiff_t
+intptr_t uintptr_t intmax_t uintmax_t wchar_t bool true false NULL errno
+fma fmaf exp expf log logf sqrt sqrtf fabs fabsf isnan isinf isfinite memcpy memset
+INFINITY NAN FMA""".split())
+#: standard headers: NAME.h of that name would shadow <NAME.h> in the folder it is written to
+_C_HEADERS = frozenset("""assert complex ctype errno fenv float inttypes iso646 limits locale math
+setjmp signal stdalign stdarg stdatomic stdbool stddef stdint stdio stdlib stdnoreturn string
+tgmath threads time uchar wchar wctype""".split())
 _SUPPORTED = ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS")
-_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,30}$")
+_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,30}\Z")
 DTYPES = ("float64", "float32")
 
 
 def check_name(name) -> str:
+    """``name`` if it is a usable C prefix and file name, else a ValueError naming ``name``.
+
+    The whole string must be an identifier of at most 31 characters (no
+    trailing newline), not a C11 keyword, not a standard typedef, macro or
+    function name the generated code relies on (``real``, ``uint32_t``,
+    ``size_t``, ``main``, ``fma``, ...), and not the name of a standard header
+    (``math``, ``string``, ``stdint``, ...; compared without case, for
+    case-insensitive file systems), whose ``NAME.h`` would shadow it.
+    """
     if not isinstance(name, str):
         raise param_error("name", "a C identifier (str)", name, exc=TypeError)
-    if not _IDENT.match(name) or name in _C_KEYWORDS or name.startswith("__"):
+    if not _IDENT.fullmatch(name) or name in _C_KEYWORDS or name.startswith("__"):
         raise param_error("name", "a C identifier of at most 31 characters (letters, digits, "
                           "'_'; not a C keyword)", name)
+    if name in _C_RESERVED:
+        raise param_error("name", "a C identifier that is not a standard type, macro or "
+                          "function name", name)
+    if name.lower() in _C_HEADERS:
+        raise param_error("name", "a name that is not a standard C header's (NAME.h would "
+                          "shadow it)", name)
     return name
+
+
+_F32_MAX = float(np.finfo(np.float32).max)
+
+
+def check_values(state, info, dtype) -> None:
+    """Refuse a state the C code cannot start from: non-finite θ, U or D (or window
+    buffers), and for ``float32`` any finite value beyond float32's range (it
+    would be written as ``inf``). The ValueError names the offending array."""
+    if info["kind"] in _lms.KINDS:  # θ only, no covariance
+        n = int(state["n_params"])
+        S = np.asarray(state["state"], dtype=float)
+        arrays = {"theta": S[:n * int(state["n_outputs"])]}
+    else:
+        n, S, theta, U, D = _layout(state)
+        arrays = {"theta": theta, "U": U, "D": D}
+        if info["kind"] == "SlidingWindowRLS":
+            arrays["the window buffer"] = S[n * int(state["n_outputs"]) + n * n + n:]
+    for label, values in arrays.items():
+        values = np.asarray(values, dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise param_error("est", f"a state with finite {label} (the C code would start "
+                              "from NaN or inf)", f"<{label} with NaN or inf>")
+    if dtype != "float32":
+        return
+    extra = {k: v for k, v in info.items()
+             if k in ("threshold", "R1", "R2", "lam", "pmax", "c1", "c2", "sigma0", "step",
+                      "eps") and v is not None}
+    for label, values in {**arrays, "state": S, **extra}.items():
+        values = np.asarray(values, dtype=float)
+        finite = values[np.isfinite(values)]
+        if finite.size and float(np.max(np.abs(finite))) > _F32_MAX:
+            raise param_error("est", f"{label} within float32's range (|x| <= {_F32_MAX:.4g}) "
+                              "for dtype='float32'",
+                              f"<{label} with |x| = {float(np.max(np.abs(finite))):.4g}>")
 
 
 def _layout(state):
@@ -140,6 +202,9 @@ def _header(name, info, n, dtype, state):
  * {info['kind']} after {int(state['n_updates'])} samples; {name}_init() restores that state.
  * C99, no dynamic memory, no recursion; needs <math.h>, <stdint.h>, <string.h>.
  * Regenerate instead of editing.
+ * Do not build with -ffast-math (or -ffinite-math-only): it lets the compiler
+ * assume no NaN or inf, so the test that skips such samples is removed and
+ * one NaN sample makes the state NaN for good.
  */
 #ifndef {U}_H
 #define {U}_H
@@ -284,6 +349,7 @@ def generate(state, name="rls", dtype="float64"):
     name = check_name(name)
     dtype = check_choice(dtype, "dtype", DTYPES)
     info = describe(state)
+    check_values(state, info, dtype)
     n = int(state["n_params"])
     init = _init(name, info, state, dtype)  # also sets info["uniform"] for the window
     if info["kind"] == "RLS":
@@ -313,10 +379,40 @@ def generate(state, name="rls", dtype="float64"):
 
 
 def write(state, directory, name="rls", dtype="float64"):
+    """Write NAME.h and NAME.c as a pair or not at all.
+
+    Both texts go to temporary files in ``directory`` first; only when both are
+    written are they renamed over NAME.h and NAME.c. On any failure the
+    temporary files are removed and existing files are left as they were.
+    """
+    import os
+    import tempfile
     header, source = generate(state, name, dtype)
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     h, c = out / f"{name}.h", out / f"{name}.c"
-    h.write_text(header, encoding="utf-8")
-    c.write_text(source, encoding="utf-8")
+    temps = []
+    try:
+        for text, target in ((header, h), (source, c)):
+            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=out)
+            temps.append(tmp)
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(temps[1], c)
+        os.replace(temps[0], h)
+        temps = []
+    finally:
+        for tmp in temps:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
     return h, c
+
+
+def _umask() -> int:
+    import os
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

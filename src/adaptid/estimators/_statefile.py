@@ -203,6 +203,21 @@ def _target(path: Path) -> Path:
     return path
 
 
+def special_kind(path) -> str | None:
+    """What ``path`` is if it exists and is not a regular file (following a
+    symlink): "a directory", "a FIFO", "a character device", ...; else None."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    for test, kind in ((stat.S_ISREG, None), (stat.S_ISDIR, "a directory"),
+                       (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return kind
+    return "not a regular file"
+
+
 def _new_mode(target: Path) -> int:
     """Permission bits for the new file: the old file's, else 0666 minus the umask."""
     try:
@@ -269,6 +284,10 @@ def save_state(est, path) -> None:
     buf = io.BytesIO()
     np.savez(buf, header=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8), **arrays)
     target = _target(Path(os.fspath(path)))
+    kind = special_kind(target)
+    if kind is not None:
+        raise ValueError(f"path must be a regular file or a new name, got {str(path)!r} "
+                         f"({kind}: a save would replace it)")
     folder = target.parent if str(target.parent) else Path(".")
     mode = _new_mode(target)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}-", suffix=".tmp",

@@ -13,9 +13,12 @@ cache valid. Every
 kernel of every subpackage is cached in one folder (numba's folder for
 ``_kernels``, which :func:`adaptid._config.cache_decision` checks). They also
 refuse a cache folder that another user could write (numba unpickles the
-index it finds there): it must be owned by the current user or root and not
-writable by group or others; otherwise the next locator is tried, and with
-none the kernel is compiled in memory (numba's own rule).
+index it finds there): it must be owned by the current user or root, not
+writable by group or others, not a symbolic link, and so must every folder
+above it (:func:`adaptid._config._untrusted`); otherwise the next locator is
+tried, and with none the kernel is compiled in memory (numba's own rule).
+Because the folder could be swapped after that check, every read of an index
+or code file goes through :func:`read_trusted` (patch ``tolerant-cache``).
 
 :func:`install` puts them in front of numba's locators (done on import of
 :mod:`adaptid._kernels`, patch ``cache-locators``); functions outside
@@ -105,16 +108,131 @@ def module_stamp(py_file: str) -> str:
 
 
 def _safe_folder(path) -> bool:
-    """Owned by us or root, and not writable by group or others."""
-    try:
-        st = os.stat(path)
-    except OSError:
+    """Owned by us or root, not writable by group or others, not a symbolic link,
+    and every folder above it safe too (:func:`adaptid._config._untrusted`)."""
+    from ... import _config
+    return _config._untrusted(path) is None
+
+
+class UntrustedCacheError(Exception):
+    """The cache folder or one of its files changed since it was checked (not an
+    ``OSError``: numba's readers turn those into a miss without a word)."""
+
+
+def _trusted(st, is_kind) -> bool:
+    """``st`` (an ``fstat``) is of kind ``is_kind``, owned by us or root, and not
+    writable by group or others."""
+    if not is_kind(st.st_mode):
         return False
     if not hasattr(os, "getuid"):  # pragma: no cover - Windows: no POSIX owners
         return True
-    if st.st_uid not in (os.getuid(), 0):
-        return False
-    return not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+    return st.st_uid in (os.getuid(), 0) and not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+
+
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+_DIRECTORY = getattr(os, "O_DIRECTORY", 0)
+_CLOEXEC = getattr(os, "O_CLOEXEC", 0)
+_NONBLOCK = getattr(os, "O_NONBLOCK", 0)
+
+
+def read_trusted(folder, name) -> bytes:
+    """The bytes of ``folder/name``, read only if neither can have been planted.
+
+    The folder is opened without following a symbolic link and held: the
+    descriptor must be the directory now at ``folder`` (``lstat``: same device
+    and inode), owned by us or root and not writable by group or others, and
+    the folders above it must pass :func:`adaptid._config._untrusted_ancestor`.
+    The file is opened relative to the held descriptor, without following a
+    symbolic link and without blocking, and must be a regular file owned by us
+    or root that group and others cannot write. Entries of such a folder can
+    only have been made by us or root, so a folder swapped after the
+    import-time check is refused, not read.
+
+    Raises ``FileNotFoundError`` when the file does not exist (a plain miss)
+    and :class:`UntrustedCacheError` when anything else is wrong.
+    """
+    from ... import _config
+    if not hasattr(os, "getuid") or not _NOFOLLOW or not _DIRECTORY \
+            or os.open not in os.supports_dir_fd:  # pragma: no cover - not POSIX
+        with open(os.path.join(folder, name), "rb") as fh:
+            return fh.read()
+    try:
+        dfd = os.open(folder, os.O_RDONLY | _DIRECTORY | _NOFOLLOW | _CLOEXEC)
+    except FileNotFoundError:
+        raise
+    except OSError as err:
+        raise UntrustedCacheError(f"{folder} cannot be opened as a folder ({err.strerror})") \
+            from None
+    try:
+        held = os.fstat(dfd)
+        try:
+            now = os.lstat(folder)
+        except OSError as err:
+            raise UntrustedCacheError(f"{folder} changed ({err.strerror})") from None
+        if (held.st_dev, held.st_ino) != (now.st_dev, now.st_ino):
+            raise UntrustedCacheError(f"{folder} was replaced")
+        if not _trusted(held, stat.S_ISDIR):
+            raise UntrustedCacheError(f"{folder} belongs to another user or others can "
+                                      f"write it (uid {held.st_uid}, mode "
+                                      f"{stat.S_IMODE(held.st_mode):o})")
+        why = _config._untrusted_ancestor(folder)
+        if why is not None:
+            raise UntrustedCacheError(f"{folder} {why}")
+        try:
+            fd = os.open(name, os.O_RDONLY | _NOFOLLOW | _NONBLOCK | _CLOEXEC, dir_fd=dfd)
+        except FileNotFoundError:
+            raise
+        except OSError as err:  # ELOOP: a symbolic link
+            raise UntrustedCacheError(f"{os.path.join(folder, name)} cannot be opened "
+                                      f"safely ({err.strerror})") from None
+        with os.fdopen(fd, "rb") as fh:
+            st = os.fstat(fh.fileno())
+            if not _trusted(st, stat.S_ISREG):
+                raise UntrustedCacheError(
+                    f"{os.path.join(folder, name)} is not a regular file of this user or "
+                    f"root that others cannot write (uid {st.st_uid}, mode "
+                    f"{stat.S_IMODE(st.st_mode):o})")
+            return fh.read()
+    finally:
+        os.close(dfd)
+
+
+class _GuardedCacheFile(caching.IndexDataCacheFile):
+    """numba's index and data files, read through :func:`read_trusted`
+    (the same format as numba's ``_load_index`` and ``_load_data``)."""
+
+    def _load_index(self):
+        import io
+        import pickle
+        try:
+            raw = read_trusted(self._cache_path, self._index_name)
+        except FileNotFoundError:
+            return {}  # no index yet
+        f = io.BytesIO(raw)
+        version = pickle.load(f)
+        if version != self._version:
+            return {}
+        stamp, overloads = pickle.loads(f.read())
+        return overloads if stamp == self._source_stamp else {}
+
+    def _load_data(self, name):
+        import pickle
+        return pickle.loads(read_trusted(self._cache_path, name))
+
+
+def _warn_untrusted(err) -> None:
+    """One :class:`~adaptid.CompilationCacheWarning` per process for a refused cache."""
+    global _WARNED
+    if _WARNED:
+        return
+    _WARNED = True
+    import warnings
+    from ..._exceptions import CompilationCacheWarning
+    warnings.warn(f"adaptid: the kernel cache is not read: {err}; kernels are compiled in "
+                  "memory", CompilationCacheWarning, stacklevel=2)
+
+
+_WARNED = False
 
 
 def _ours(py_file) -> bool:
@@ -223,6 +341,10 @@ class _TolerantCache(caching.FunctionCache):
     def load_overload(self, sig, target_context):
         try:
             return self._load_compiled(sig, target_context)
+        except UntrustedCacheError as err:  # swapped or planted: never unpickled
+            self._refused = True
+            _warn_untrusted(err)
+            return None     # a miss: numba compiles in memory
         except Exception:  # noqa: BLE001 - UnpicklingError, EOFError, OSError, ...
             self._drop_index()
             return None     # a miss: numba compiles
@@ -236,8 +358,13 @@ class _TolerantCache(caching.FunctionCache):
         return data if data is not None else _load_installed(self, sig, target_context)
 
     def save_overload(self, sig, data):
+        if getattr(self, "_refused", False):
+            return  # not into a folder that failed the check
         try:
             super().save_overload(sig, data)
+        except UntrustedCacheError as err:
+            self._refused = True
+            _warn_untrusted(err)
         except Exception:  # noqa: BLE001 - the index was damaged: start it afresh
             self._drop_index()
             try:
@@ -256,10 +383,17 @@ def tolerate(dispatcher) -> None:
     """Give ``dispatcher``'s cache (numba's ``FunctionCache``) :class:`_TolerantCache`'s
     methods: an index or code file that cannot be unpickled (truncated, garbage)
     makes the kernel compile again and the entry be rewritten, and a miss is
-    looked up in the kernels compiled at install. Nothing is done when patch
+    looked up in the kernels compiled at install. Its index and code files are
+    read through :func:`read_trusted` (the folder re-verified on a held
+    descriptor at every read): a folder swapped or a file planted since the
+    import-time check is never unpickled; the kernel is compiled in memory,
+    nothing is saved there, and one :class:`~adaptid.CompilationCacheWarning`
+    says why. Nothing is done when patch
     ``tolerant-cache`` is off or numba's cache is of another class."""
     if not enabled("tolerant-cache"):
         return
     cache_obj = getattr(dispatcher, "_cache", None)
     if type(cache_obj) is caching.FunctionCache:
         cache_obj.__class__ = _TolerantCache
+        if type(getattr(cache_obj, "_cache_file", None)) is caching.IndexDataCacheFile:
+            cache_obj._cache_file.__class__ = _GuardedCacheFile
