@@ -402,7 +402,9 @@ def test_public_index():
                 # issue 37: regularised and instrumental-variable estimation
                 "impulseest", "arx_regul", "kernel_matrix", "iv4", "ivx",
                 # issue 36: frequency responses
-                "FrequencyResponse", "spa", "etfe"}
+                "FrequencyResponse", "spa", "etfe",
+                # issue 33: streaming model objects
+                "RecursiveARX", "RecursiveAR", "StreamResult"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

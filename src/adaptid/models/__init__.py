@@ -53,6 +53,11 @@ Frequency domain (subpackage :mod:`adaptid.models.frequency`):
 :class:`FrequencyResponse` (Bode with confidence bands; returned by every
 polynomial model's ``freqresp``), :func:`spa` (Blackman–Tukey spectral
 analysis), :func:`etfe` (empirical transfer-function estimate).
+
+Streaming model objects (subpackage :mod:`adaptid.models.streaming`,
+MATLAB's ``recursiveARX``/``recursiveAR``): :class:`RecursiveARX`,
+:class:`RecursiveAR` — ``step(y, u)`` one sample at a time, ``run`` a
+record in one compiled pass (:class:`StreamResult`), state files.
 """
 
 from __future__ import annotations
@@ -81,6 +86,7 @@ from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import iv4, ivx
 from .frequency import FrequencyResponse, etfe, spa
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
+from .streaming import RecursiveAR, RecursiveARX, StreamResult
 
 # The DC-motor builder lives in its own module, loaded on first use.
 _LAZY = {
@@ -128,6 +134,9 @@ __all__ = [
     "FrequencyResponse",
     "spa",
     "etfe",
+    "RecursiveARX",
+    "RecursiveAR",
+    "StreamResult",
 ]
 
 
