@@ -130,7 +130,8 @@ class RecursiveARX:
         update only once they hold measured data.
     dt : float
         Sample time of the model :meth:`to_model` returns (default 1.0;
-        taken from the data of :meth:`run` when they carry a time axis).
+        replaced by the ``dt`` of an IDData or a named / time-indexed pandas
+        record given to :meth:`run`).
 
     Attributes
     ----------
@@ -316,8 +317,9 @@ class RecursiveARX:
         ----------
         y : array_like, shape (N,); pandas; IDData; tuple ``(y, u)``; DataFrame
             The output, or the whole record (the one input convention of
-            :func:`adaptid.models._iddata.as_signals`). A record with a
-            time axis sets ``dt``.
+            :func:`adaptid.models._iddata.as_signals`). An IDData, or a
+            pandas record with names or a time index, sets ``dt`` (that of
+            its time axis; arrays leave it).
         u : array_like, shape (N,) or (N, m), optional
 
         Returns
