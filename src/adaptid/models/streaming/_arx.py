@@ -80,7 +80,10 @@ class RecursiveARX:
       :math:`\hat\theta_k = \hat\theta_{k-1} + \mu\varphi_k\varepsilon_k`;
     * ``window=M`` (``History="Finite"``, ``WindowLength``,
       :class:`~adaptid.SlidingWindowRLS`): least squares over the last M
-      regressor rows (with ``method="forgetting"`` only).
+      regressor rows (with ``method="forgetting"`` only): exactly so with
+      ``P0="diffuse"``; a finite ``P0`` keeps its prior term
+      :math:`P_0^{-1}` in the window's normal equations, as
+      :class:`~adaptid.SlidingWindowRLS` does.
 
     The estimator is built by :func:`adaptid.estimator`; this object adds the
     lag buffers. **The lag buffers start at zero**, as MATLAB's do: with
