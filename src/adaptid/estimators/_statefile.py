@@ -85,7 +85,9 @@ _ARRAYS = ("theta0", "P0", "state", "process_cov")  # the arrays of a core estim
 _REGISTRY: dict = {}
 _DEFINED_IN = {"RLS": "adaptid.estimators", "SlidingWindowRLS": "adaptid.estimators",
                "KalmanRLS": "adaptid.estimators", "LMS": "adaptid.estimators",
-               "NLMS": "adaptid.estimators", "ConstrainedRLS": "adaptid.constrained"}
+               "NLMS": "adaptid.estimators", "ConstrainedRLS": "adaptid.constrained",
+               "RecursiveARX": "adaptid.models.streaming",
+               "RecursiveAR": "adaptid.models.streaming"}
 
 
 def register_state_class(name: str, cls) -> None:

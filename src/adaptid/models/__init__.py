@@ -56,6 +56,11 @@ analysis), :func:`etfe` (empirical transfer-function estimate),
 :func:`tfest` (transfer-function estimation, a :class:`TransferFunctionModel`),
 :class:`StepResponse` and :class:`Roots` (the polynomial models'
 ``step_response``, ``poles`` and ``zeros`` with standard deviations).
+
+Streaming model objects (subpackage :mod:`adaptid.models.streaming`,
+MATLAB's ``recursiveARX``/``recursiveAR``): :class:`RecursiveARX`,
+:class:`RecursiveAR` — ``step(y, u)`` one sample at a time, ``run`` a
+record in one compiled pass (:class:`StreamResult`), state files.
 """
 
 from __future__ import annotations
@@ -85,6 +90,7 @@ from .iv import iv4, ivx
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
                         etfe, spa, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
+from .streaming import RecursiveAR, RecursiveARX, StreamResult
 
 # The DC-motor builder lives in its own module, loaded on first use.
 _LAZY = {
@@ -136,6 +142,9 @@ __all__ = [
     "TransferFunctionModel",
     "StepResponse",
     "Roots",
+    "RecursiveARX",
+    "RecursiveAR",
+    "StreamResult",
 ]
 
 
