@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["lazy"]
+__all__ = ["lazy", "pyplot"]
 
 
 class _LazyModule:
@@ -29,3 +29,12 @@ class _LazyModule:
 def lazy(name: str):
     """A stand-in for module ``name`` that imports it on the first attribute access."""
     return _LazyModule(name)
+
+
+def pyplot():
+    """``matplotlib.pyplot``, or an ImportError naming the extra that installs it."""
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as err:  # pragma: no cover - depends on the extra
+        raise ImportError("plot needs matplotlib: pip install 'adaptid[plot]'") from err
+    return plt

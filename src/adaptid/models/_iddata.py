@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import as_float_array, check_choice, check_scalar, param_error
+from .._lazy import pyplot
 
 __all__ = ["IDData", "as_signals"]
 
@@ -421,10 +422,7 @@ class IDData:
 
         Requires matplotlib (``pip install 'adaptid[plot]'``).
         """
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as err:  # pragma: no cover - depends on the extra
-            raise ImportError("plot needs matplotlib: pip install 'adaptid[plot]'") from err
+        plt = pyplot()
         n = self.n_outputs + self.n_inputs
         if fig is None:
             fig = plt.figure(figsize=(7, 1.8 * n + 0.6))

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._teststats import cross_correlation, fit_percent, ljung_box
 from .._validation import check_choice, check_int, check_scalar, param_error
-from ._iddata import IDData, as_record
+from ._iddata import as_record
 
 __all__ = ["compare", "resid", "select_order", "CompareResult", "ResidResult", "OrderSelection"]
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._validation import as_float_array, check_scalar, param_error
+from ..._lazy import pyplot
 
 __all__ = ["FrequencyResponse", "default_grid", "polar_sd"]
 
@@ -230,10 +231,7 @@ class FrequencyResponse:
         matplotlib.figure.Figure
         """
         sd = check_scalar(sd, "sd", low=0.0)
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as err:  # pragma: no cover - depends on the extra
-            raise ImportError("plot needs matplotlib: pip install 'adaptid[plot]'") from err
+        plt = pyplot()
         if fig is None:
             fig = plt.figure(figsize=(6.5, 5.5), layout="constrained")
         pairs = self._pairs()

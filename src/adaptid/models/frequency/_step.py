@@ -25,6 +25,7 @@ import numpy as np
 
 from ..._lazy import lazy
 from ..._validation import check_int, check_scalar
+from ..._lazy import pyplot
 
 signal = lazy("scipy.signal")
 
@@ -152,10 +153,7 @@ class StepResponse:
             in ``time_unit``.
         """
         sd = check_scalar(sd, "sd", low=0.0)
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as err:  # pragma: no cover - depends on the extra
-            raise ImportError("plot needs matplotlib: pip install 'adaptid[plot]'") from err
+        plt = pyplot()
         if fig is None:
             fig = plt.figure(figsize=(6.5, 3.5), layout="constrained")
         pairs = self._pairs()

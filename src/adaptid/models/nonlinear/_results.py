@@ -7,16 +7,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._summary import Summary, parameter_rows
+from ..._lazy import pyplot
 
 __all__ = ["NARXResult", "term_name"]
-
-
-def _needs_matplotlib():
-    try:
-        import matplotlib.pyplot as plt
-    except ImportError as err:  # pragma: no cover - depends on the extra
-        raise ImportError("plot needs matplotlib: pip install 'adaptid[plot]'") from err
-    return plt
 
 
 class _ERRSummary(Summary):
@@ -192,7 +185,7 @@ class NARXResult:
         -------
         matplotlib.figure.Figure
         """
-        plt = _needs_matplotlib()
+        plt = pyplot()
         fig = plt.figure(figsize=(9, 3.5)) if fig is None else fig
         ax1, ax2 = fig.subplots(1, 2)
         pos = np.arange(len(self.terms))

@@ -12,6 +12,7 @@ from ..._summary import Summary, parameter_rows
 from ..._validation import as_float_array, check_choice, check_int, check_scalar, param_error
 from .._iddata import IDData
 from .._polymodel import NotFittedError
+from ..._lazy import pyplot
 
 __all__ = ["stlsq", "SINDy", "polynomial_library"]
 
@@ -457,10 +458,7 @@ class SINDy:
     def plot(self, *, fig=None):
         """The coefficients Ξ as an image (features × equations) → Figure."""
         self._check_fitted()
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as err:  # pragma: no cover - depends on the extra
-            raise ImportError("plot needs matplotlib: pip install 'adaptid[plot]'") from err
+        plt = pyplot()
         fig = plt.figure(figsize=(3 + len(self.state_names), 1 + 0.25 * len(self.feature_names))) \
             if fig is None else fig
         ax = fig.subplots()

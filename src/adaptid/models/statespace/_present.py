@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._summary import _fmt
+from ..._lazy import pyplot
 
 __all__ = ["StateSpaceSummary", "StateSpacePresentation"]
 
@@ -161,10 +162,7 @@ class StateSpacePresentation:
         -------
         matplotlib.figure.Figure
         """
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as err:  # pragma: no cover - depends on the extra
-            raise ImportError("plot needs matplotlib: pip install 'adaptid[plot]'") from err
+        plt = pyplot()
         if fig is None:
             fig = plt.figure(figsize=(6.5, 4))
         if self.singular_values is not None:
