@@ -12,6 +12,7 @@ from scipy.special import log_ndtr
 from .._exceptions import AdaptidWarning
 from .._kernels.layers._breakpoints import breakpoints_dp
 from .._validation import check_int, check_scalar, param_error
+from ._format import format_num, frame
 from ._sc_common import lazy_pyplot, ols, regression_data
 
 __all__ = ["BreakpointsResult", "BreakConfidenceWarning", "breakpoints"]
@@ -71,6 +72,31 @@ class BreakpointsResult:
     _X: np.ndarray = field(repr=False)
     _y: np.ndarray = field(repr=False)
     _B: np.ndarray = field(repr=False)
+
+    def __repr__(self) -> str:
+        return (f"BreakpointsResult(n_breaks={self.n_breaks}, "
+                f"breakpoints={self.breakpoints.tolist()}, h={self.h}, "
+                f"max_breaks={self.max_breaks}, n_obs={self._y.size})")
+
+    def summary(self) -> str:
+        """The partition as strucchange's ``print(breakpoints(...))`` and its RSS/BIC table."""
+        m = self.n_breaks
+        bp = " ".join(str(b) for b in self.breakpoints) if m else "NA"
+        out = ["", f"\t Optimal {m + 1}-segment partition: ", "",
+               f"Minimal segment length h = {self.h}, N = {self._y.size}", "",
+               "Breakpoints at observation number (0-based, last sample of a segment):", bp, "",
+               f"{'m':>3}  {'RSS':>12}  {'BIC':>12}"]
+        out += [f"{k:>3}  {format_num(r, 7):>12}  {format_num(b, 7):>12}"
+                for k, (r, b) in enumerate(zip(self.rss, self.bic))]
+        return "\n".join(out) + "\n"
+
+    def to_frame(self):
+        """One row per break of the BIC choice: ``break`` (0-based last sample), segment sizes."""
+        edges = np.r_[0, self.breakpoints + 1, self._y.size]
+        rows = [(int(b), int(edges[i + 1] - edges[i]), int(edges[i + 2] - edges[i + 1]))
+                for i, b in enumerate(self.breakpoints)]
+        return frame(rows, ("breakpoint", "n_before", "n_after"),
+                     index=[f"break {i + 1}" for i in range(len(rows))])
 
     @property
     def max_breaks(self) -> int:
