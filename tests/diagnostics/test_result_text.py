@@ -151,3 +151,32 @@ def test_to_frame_columns():
 def test_breakpoints_summary_names_the_partition():
     text = RESULTS["breakpoints"].summary()
     assert "Optimal 2-segment partition" in text and "\n199\n" in text
+
+
+def test_confint_is_a_labelled_table_and_still_the_array():
+    X, y = _nile()
+    bp = breakpoints(X, y)
+    ci = bp.confint()
+    # the numbers are unchanged: the same (m, 3) float array strucchange gives minus one
+    np.testing.assert_array_equal(np.asarray(ci) + 1,
+                                  np.array(REF["nile.breakpoints.confint95"]).reshape(1, 3))
+    lo, date, hi = ci[0]
+    assert (lo, date, hi) == (24.0, 27.0, 31.0)
+    np.testing.assert_array_equal(ci.lower, [24.0])
+    np.testing.assert_array_equal(ci.estimate, [27.0])
+    np.testing.assert_array_equal(ci.upper, [31.0])
+    df = ci.to_frame()
+    assert list(df.index) == ["break 1"] and list(df.columns) == ["lower", "estimate", "upper"]
+    assert df.loc["break 1", "estimate"] == 27
+    assert repr(ci).splitlines() == ["         lower  estimate  upper",
+                                     "break 1     24        27     31"]
+
+
+def test_confint_carries_the_time_axis():
+    X, y = _nile()
+    years = pd.Index(np.arange(1871, 1971), name="year")
+    ci = breakpoints(X, pd.Series(y, index=years)).confint()
+    df = ci.to_frame()
+    # strucchange: confint(breakpoints(Nile ~ 1)) gives 1895 (1898) 1902
+    assert df.loc["break 1"].tolist() == [1895, 1898, 1902]
+    np.testing.assert_array_equal(np.asarray(ci), np.asarray(breakpoints(X, y).confint()))
