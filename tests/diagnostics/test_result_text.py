@@ -80,6 +80,10 @@ def test_nile_ols_cusum_prints_as_strucchange():
     stat, p = REF["nile.chow50.statistic"][0], REF["nile.chow50.pvalue"][0]
     assert f"F = {format_num(stat)}, p-value = {format_pval(p)}" in chow_text
     assert "F = 17.143, p-value = 7.348e-05" in chow_text
+    # strucchange's sctest(Fstats(Nile ~ 1)) prints "sup.F = 75.93, p-value = 2.22e-16":
+    # R's 1 - pchisq(...) rounds the tail up to eps; adaptid's tail (1.9e-16) is below it
+    assert "\tsupF test\n\ndata:  X, y\nsup.F = 75.93, p-value " in fstats(X, y).summary()
+    assert "L = 3.08, p-value = 0.005" in nyblom_hansen(X, y).summary()
 
 
 def _results():

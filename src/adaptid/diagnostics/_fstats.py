@@ -30,7 +30,8 @@ class FTest:
 
     def summary(self) -> str:
         """The test as strucchange's ``print(sctest(Fstats(...), type=...))`` prints it."""
-        return htest_text(f"{self.kind} test", "X, y", [(self.kind, self.statistic)], self.pvalue)
+        name = self.kind[:-1] + ".F"  # strucchange's sup.F, ave.F, exp.F
+        return htest_text(f"{self.kind} test", "X, y", [(name, self.statistic)], self.pvalue)
 
     def to_frame(self):
         """One row: ``test``, ``statistic``, ``pvalue`` (a pandas DataFrame)."""
