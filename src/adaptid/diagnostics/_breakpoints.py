@@ -12,9 +12,10 @@ from scipy.special import log_ndtr
 from .._exceptions import AdaptidWarning
 from .._kernels.layers._breakpoints import breakpoints_dp
 from .._validation import check_int, check_scalar, param_error
+from ._format import format_num, frame
 from ._sc_common import lazy_pyplot, ols, regression_data
 
-__all__ = ["BreakpointsResult", "BreakConfidenceWarning", "breakpoints"]
+__all__ = ["BreakpointsResult", "BreakConfint", "BreakConfidenceWarning", "breakpoints"]
 
 
 class BreakConfidenceWarning(AdaptidWarning):
@@ -41,6 +42,79 @@ def _pargmaxV(x, xi=1.0, phi1=1.0, phi2=1.0):
                 * np.exp((phi + xi) * a / 2 + log_ndtr(-(phi + xi / 2) / np.sqrt(phi) * np.sqrt(a)))
                 - np.exp(np.log((2 * phi + xi) ** 2 / ((phi + xi) * phi) - 2 + frac * a / 2)
                          + log_ndtr(-np.sqrt(frac) * np.sqrt(a) / 2)))
+
+
+class BreakConfint(np.ndarray):
+    r"""Confidence intervals of break dates: an (m, 3) float array with labels.
+
+    Indexes, unpacks and computes as the plain ndarray it is (row i: lower
+    bound, break date, upper bound, 0-based sample numbers, NaN where
+    undefined); adds the labels: :attr:`lower`, :attr:`estimate`,
+    :attr:`upper`, a labelled ``repr`` and :meth:`to_frame`.
+
+    Attributes
+    ----------
+    time : sequence or None
+        The time axis of the data (the index of a pandas ``y``), or None.
+    """
+
+    def __new__(cls, values, time=None):
+        obj = np.asarray(values, dtype=float).view(cls)
+        obj.time = time
+        return obj
+
+    def __array_finalize__(self, obj):
+        self.time = getattr(obj, "time", None)
+
+    def _column(self, j):
+        return np.asarray(self)[:, j]
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower bounds, shape (m,)."""
+        return self._column(0)
+
+    @property
+    def estimate(self) -> np.ndarray:
+        """Break dates, shape (m,)."""
+        return self._column(1)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper bounds, shape (m,)."""
+        return self._column(2)
+
+    def _labels(self, col):
+        if self.time is None:
+            return list(col)
+        return [None if np.isnan(v) else self.time[int(v)] for v in col]
+
+    def to_frame(self):
+        """The table: index ``break 1`` … ``break m``, columns ``lower``, ``estimate``, ``upper``.
+
+        A pandas DataFrame (a dict of columns when pandas is missing);
+        with a time axis the entries are its labels, otherwise 0-based
+        sample numbers.
+        """
+        a = np.asarray(self)
+        rows = list(zip(*(self._labels(a[:, j]) for j in range(3))))
+        return frame(rows, ("lower", "estimate", "upper"),
+                     index=[f"break {i + 1}" for i in range(a.shape[0])])
+
+    def __repr__(self) -> str:
+        if self.ndim != 2 or self.shape[1] != 3:
+            return repr(np.asarray(self))
+        a = np.asarray(self)
+        cells = [["", "lower", "estimate", "upper"]]
+        for i in range(a.shape[0]):
+            cells.append([f"break {i + 1}", *(("NA" if v is None or (isinstance(v, float) and np.isnan(v))
+                                               else (format_num(v, 7) if isinstance(v, float) else str(v)))
+                                              for v in (self._labels(a[i:i + 1, j])[0] for j in range(3)))])
+        w = [max(len(r[j]) for r in cells) for j in range(4)]
+        return "\n".join("  ".join(c.ljust(w[j]) if j == 0 else c.rjust(w[j]) for j, c in enumerate(r))
+                         for r in cells)
+
+    __str__ = __repr__
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +145,32 @@ class BreakpointsResult:
     _X: np.ndarray = field(repr=False)
     _y: np.ndarray = field(repr=False)
     _B: np.ndarray = field(repr=False)
+    _time: object = field(default=None, repr=False)
+
+    def __repr__(self) -> str:
+        return (f"BreakpointsResult(n_breaks={self.n_breaks}, "
+                f"breakpoints={self.breakpoints.tolist()}, h={self.h}, "
+                f"max_breaks={self.max_breaks}, n_obs={self._y.size})")
+
+    def summary(self) -> str:
+        """The partition as strucchange's ``print(breakpoints(...))`` and its RSS/BIC table."""
+        m = self.n_breaks
+        bp = " ".join(str(b) for b in self.breakpoints) if m else "NA"
+        out = ["", f"\t Optimal {m + 1}-segment partition: ", "",
+               f"Minimal segment length h = {self.h}, N = {self._y.size}", "",
+               "Breakpoints at observation number (0-based, last sample of a segment):", bp, "",
+               f"{'m':>3}  {'RSS':>12}  {'BIC':>12}"]
+        out += [f"{k:>3}  {format_num(r, 7):>12}  {format_num(b, 7):>12}"
+                for k, (r, b) in enumerate(zip(self.rss, self.bic))]
+        return "\n".join(out) + "\n"
+
+    def to_frame(self):
+        """One row per break of the BIC choice: ``break`` (0-based last sample), segment sizes."""
+        edges = np.r_[0, self.breakpoints + 1, self._y.size]
+        rows = [(int(b), int(edges[i + 1] - edges[i]), int(edges[i + 2] - edges[i + 1]))
+                for i, b in enumerate(self.breakpoints)]
+        return frame(rows, ("breakpoint", "n_before", "n_after"),
+                     index=[f"break {i + 1}" for i in range(len(rows))])
 
     @property
     def max_breaks(self) -> int:
@@ -98,11 +198,15 @@ class BreakpointsResult:
         _, edges = self._segments(m)
         return np.array([ols(self._X[a:b], self._y[a:b])[0] for a, b in zip(edges[:-1], edges[1:])])
 
-    def confint(self, level=0.95, m=None) -> np.ndarray:
+    def confint(self, level=0.95, m=None) -> BreakConfint:
         r"""Bai (1997) confidence intervals of the break dates, shape (m, 3).
 
         Columns: lower bound, break date, upper bound (0-based, as
-        :attr:`breakpoints`); strucchange's ``confint.breakpointsfull``
+        :attr:`breakpoints`), returned as a :class:`BreakConfint`: the
+        (m, 3) float array, labelled (``.lower``, ``.estimate``,
+        ``.upper``) and with ``to_frame()``, a DataFrame indexed
+        ``break 1`` … with the data's time labels when ``y`` was a pandas
+        Series; strucchange's ``confint.breakpointsfull``
         with its defaults (heterogeneous regressors and errors across
         segments, ``het.reg = het.err = TRUE``). A row whose interval
         cannot be computed (P(argmax V ≤ 0) outside the level) is NaN,
@@ -157,7 +261,7 @@ class BreakpointsResult:
             lo *= s1 / q1
             out[i - 1, 0] = bp[i - 1] - np.ceil(up)
             out[i - 1, 2] = bp[i - 1] - np.floor(lo)
-        return out
+        return BreakConfint(out, self._time)
 
     def plot(self, ax=None):
         """Plot RSS and BIC against the number of breaks; returns the Axes."""
@@ -249,6 +353,7 @@ def breakpoints(X, y, *, h=0.15, max_breaks=None):
     >>> bp.n_breaks, bp.breakpoints
     (1, array([27]))
     """
+    time = getattr(y, "index", None)
     X, y = regression_data(X, y)
     N, n = X.shape
     if isinstance(h, (float, np.floating)) and h < 1:
@@ -277,6 +382,7 @@ def breakpoints(X, y, *, h=0.15, max_breaks=None):
     lwz = np.log(rss / (N - p)) + p * 0.299 / N * np.log(N) ** 2.1
     nb = int(np.argmin(bic))
     res = BreakpointsResult(rss=rss, bic=bic, lwz=lwz, n_breaks=nb,
-                            breakpoints=np.empty(0, dtype=np.int64), h=hh, _X=X, _y=y, _B=B)
+                            breakpoints=np.empty(0, dtype=np.int64), h=hh, _X=X, _y=y, _B=B,
+                            _time=time)
     object.__setattr__(res, "breakpoints", res.breakpoints_for(nb))
     return res

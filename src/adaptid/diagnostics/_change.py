@@ -8,6 +8,7 @@ import numpy as np
 from scipy.stats import kstwobign
 
 from .._validation import check_choice, check_scalar
+from ._format import format_num, format_pval, frame, htest_text, short_repr
 from ._cusum import cusum_squares
 from ._efp import efp
 from ._fstats import fstats
@@ -30,6 +31,21 @@ class ChangeTest:
     pvalue: float
     reject: bool
     break_index: int | None
+
+    def __repr__(self) -> str:
+        return short_repr("ChangeTest", name=self.name, statistic=self.statistic,
+                          pvalue=self.pvalue, reject=self.reject, break_index=self.break_index)
+
+    def summary(self) -> str:
+        """The test in the layout of R's ``print.htest``."""
+        extra = [] if self.break_index is None else [f"break index (0-based): {self.break_index}"]
+        return htest_text(f"{self.name} test", "X, y", [(self.name, self.statistic)],
+                          self.pvalue, extra)
+
+    def to_frame(self):
+        """One row: ``test``, ``statistic``, ``pvalue``, ``reject``, ``break_index``."""
+        return frame([(self.name, self.statistic, self.pvalue, self.reject, self.break_index)],
+                     ("test", "statistic", "pvalue", "reject", "break_index"))
 
     def to_dict(self) -> dict:
         return {"name": self.name, "statistic": self.statistic, "pvalue": self.pvalue,
@@ -55,6 +71,29 @@ class ChangeTests:
 
     def __getitem__(self, name) -> ChangeTest:
         return self.tests[name]
+
+    def __repr__(self) -> str:
+        head = f"ChangeTests(alpha={self.alpha:g}, no_change={self.no_change})"
+        return "\n".join([head] + [f"  {t!r}" for t in self.tests.values()])
+
+    def summary(self) -> str:
+        """One line per test: statistic, p-value as R prints it, verdict, break index."""
+        rows = [("test", "statistic", "p-value", "reject", "break")]
+        for k, t in self.tests.items():
+            rows.append((k, format_num(t.statistic), format_pval(t.pvalue), str(t.reject),
+                         "" if t.break_index is None else str(t.break_index)))
+        w = [max(len(r[j]) for r in rows) for j in range(5)]
+        lines = ["  ".join(c.ljust(w[j]) if j == 0 else c.rjust(w[j]) for j, c in enumerate(r))
+                 for r in rows]
+        head = f"Tests of parameter constancy at level {self.alpha:g}"
+        verdict = "no change" if self.no_change else "change: " + ", ".join(self.rejected)
+        return "\n".join(["", "\t" + head, "", *lines, "", verdict, ""])
+
+    def to_frame(self):
+        """One row per test: ``statistic``, ``pvalue``, ``reject``, ``break_index`` (index: name)."""
+        names = list(self.tests)
+        return frame([(t.statistic, t.pvalue, t.reject, t.break_index) for t in self.tests.values()],
+                     ("statistic", "pvalue", "reject", "break_index"), index=names)
 
     def to_dict(self) -> dict:
         return {"alpha": self.alpha, "no_change": self.no_change,

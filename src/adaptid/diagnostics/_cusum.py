@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import as_float_array, check_choice, check_scalar, param_error
+from ._format import format_num, frame
 
 __all__ = ["CusumResult", "cusum", "cusum_squares"]
 
@@ -74,6 +75,20 @@ class CusumResult:
         return (f"CusumResult(kind={self.kind!r}, m={self.statistic.size}, "
                 f"alpha={self.alpha}, crossed={self.crossed}, "
                 f"first_crossing={self.first_crossing})")
+
+    def summary(self) -> str:
+        """The test in the layout of R's ``print.htest``: bounds crossed or not, and where."""
+        method = ("CUSUM test (Brown, Durbin & Evans)" if self.kind == "cusum"
+                  else "CUSUM of squares test")
+        where = "" if self.first_crossing is None else f", first crossing at j = {self.first_crossing}"
+        return (f"\n\t{method}\n\ndata:  w (m = {self.statistic.size})\n"
+                f"critical value = {format_num(self.critical_value)}, alpha = {self.alpha:g}, "
+                f"crossed = {self.crossed}{where}\n")
+
+    def to_frame(self):
+        """One row: ``test``, ``critical_value``, ``alpha``, ``crossed``, ``first_crossing``."""
+        return frame([(self.kind, self.critical_value, self.alpha, self.crossed, self.first_crossing)],
+                     ("test", "critical_value", "alpha", "crossed", "first_crossing"))
 
     def plot(self, ax=None, *, x=None):
         """Plot the statistic and its band; returns the matplotlib Axes.

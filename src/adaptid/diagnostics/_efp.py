@@ -10,6 +10,7 @@ from .._kernels.layers._breakpoints import moving_estimates, recursive_estimates
 from .._validation import check_choice, check_scalar, param_error
 from ._pvalues import efp_critical_value, pvalue_efp
 from ._recursive import recursive_residuals
+from ._format import frame, htest_text, short_repr
 from ._sc_common import lazy_pyplot, ols, regression_data, root_from_factor
 
 __all__ = ["EfpResult", "efp"]
@@ -23,6 +24,9 @@ _LIMIT = {
     "re": "Brownian bridge",
     "me": "Brownian bridge increments",
 }
+#: strucchange's name of each ``sctest`` statistic.
+_STAT = {"rec-cusum": "S", "ols-cusum": "S0", "rec-mosum": "M", "ols-mosum": "M0",
+         "re": "RE", "me": "ME"}
 _NAMES = {
     "rec-cusum": "Recursive CUSUM test",
     "ols-cusum": "OLS-based CUSUM test",
@@ -92,6 +96,21 @@ class EfpResult:
         src = np.abs(self._stat_source).reshape(self._stat_source.shape[0], -1).max(axis=1)
         offset = self.process.shape[0] - src.size
         return int(self.index[offset + int(np.argmax(src))])
+
+    def __repr__(self) -> str:
+        return short_repr("EfpResult", kind=self.kind, statistic=self.statistic,
+                          pvalue=self.pvalue, break_index=self.break_index,
+                          length=self.process.shape[0])
+
+    def summary(self) -> str:
+        """The test as strucchange's ``print(sctest(efp(...)))`` prints it."""
+        return htest_text(_NAMES[self.kind], "X, y", [(_STAT[self.kind], self.statistic)],
+                          self.pvalue, [f"break index (0-based): {self.break_index}"])
+
+    def to_frame(self):
+        """One row: ``test``, ``statistic``, ``pvalue``, ``break_index`` (a pandas DataFrame)."""
+        return frame([(self.kind, self.statistic, self.pvalue, self.break_index)],
+                     ("test", "statistic", "pvalue", "break_index"))
 
     def critical_value(self, alpha=0.05) -> float:
         """Critical value c of the test at level ``alpha`` (``pvalue(c) = alpha``)."""

@@ -11,6 +11,7 @@ from scipy.stats import f as f_dist
 from .._kernels.layers._breakpoints import prefix_rss
 from .._validation import check_choice, check_int, check_scalar, param_error
 from ._pvalues import pvalue_fstats
+from ._format import frame, htest_text, short_repr
 from ._sc_common import lazy_pyplot, regression_data
 
 __all__ = ["FstatsResult", "FTest", "ChowResult", "fstats", "chow"]
@@ -23,6 +24,18 @@ class FTest:
     kind: str
     statistic: float
     pvalue: float
+
+    def __repr__(self) -> str:
+        return short_repr("FTest", kind=self.kind, statistic=self.statistic, pvalue=self.pvalue)
+
+    def summary(self) -> str:
+        """The test as strucchange's ``print(sctest(Fstats(...), type=...))`` prints it."""
+        name = self.kind[:-1] + ".F"  # strucchange's sup.F, ave.F, exp.F
+        return htest_text(f"{self.kind} test", "X, y", [(name, self.statistic)], self.pvalue)
+
+    def to_frame(self):
+        """One row: ``test``, ``statistic``, ``pvalue`` (a pandas DataFrame)."""
+        return frame([(self.kind, self.statistic, self.pvalue)], ("test", "statistic", "pvalue"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,6 +65,25 @@ class FstatsResult:
     n_params: int
     lam: float
     rss_full: float
+
+    def __repr__(self) -> str:
+        t = self.test("supF")
+        return short_repr("FstatsResult", supF=t.statistic, pvalue=t.pvalue,
+                          breakpoint=self.breakpoint, candidates=self.candidates.size,
+                          n_obs=self.n_obs)
+
+    def summary(self) -> str:
+        """supF, aveF and expF as strucchange's ``sctest`` prints each, and the break."""
+        return "".join(self.test(k).summary() for k in ("supF", "aveF", "expF")) + \
+            f"break after sample (0-based): {self.breakpoint}\n"
+
+    def to_frame(self):
+        """One row per test (supF, aveF, expF): ``test``, ``statistic``, ``pvalue``, ``breakpoint``."""
+        rows = []
+        for k in ("supF", "aveF", "expF"):
+            t = self.test(k)
+            rows.append((k, t.statistic, t.pvalue, self.breakpoint if k == "supF" else None))
+        return frame(rows, ("test", "statistic", "pvalue", "breakpoint"))
 
     @property
     def breakpoint(self) -> int:
@@ -199,6 +231,19 @@ class ChowResult:
     statistic: float
     pvalue: float
     at: int
+
+    def __repr__(self) -> str:
+        return short_repr("ChowResult", statistic=self.statistic, pvalue=self.pvalue, at=self.at)
+
+    def summary(self) -> str:
+        """The test as strucchange's ``print(sctest(..., type = "Chow"))`` prints it."""
+        return htest_text("Chow test", "X, y", [("F", self.statistic)], self.pvalue,
+                          [f"break after sample (0-based): {self.at}"])
+
+    def to_frame(self):
+        """One row: ``test``, ``statistic``, ``pvalue``, ``at``."""
+        return frame([("chow", self.statistic, self.pvalue, self.at)],
+                     ("test", "statistic", "pvalue", "at"))
 
 
 def chow(X, y, at):

@@ -9,6 +9,7 @@ from scipy.stats import norm
 from .._kernels.layers._breakpoints import moving_estimates
 from .._validation import as_float_array, check_choice, check_scalar, param_error
 from . import _sc_tables as _T
+from ._format import format_num, frame
 from ._sc_common import lazy_pyplot, ols, regression_data, root_from_factor
 
 __all__ = ["Monitor"]
@@ -222,3 +223,18 @@ class Monitor:
     def __repr__(self) -> str:
         return (f"Monitor(kind={self.kind!r}, n_hist={self.n_hist}, n_seen={self.n_seen}, "
                 f"alarm={self.alarm})")
+
+    def summary(self) -> str:
+        """The monitoring state as strucchange's ``print(mefp)`` reports it."""
+        method = ("Monitoring with OLS-based CUSUM test" if self.kind == "ols-cusum"
+                  else "Monitoring with ME test (moving estimates test)")
+        alarm = ("No structural change detected" if self.alarm is None
+                 else f"Break detected at observation # {self.alarm} (0-based)")
+        return (f"\n\t{method}\n\nInitial monitoring sample (history): {self.n_hist} observations, "
+                f"seen: {self.n_seen}\ncritical value = {format_num(self.critical_value)}, "
+                f"alpha = {self.alpha:g}\n{alarm}\n")
+
+    def to_frame(self):
+        """One row: ``test``, ``n_hist``, ``n_seen``, ``critical_value``, ``alpha``, ``alarm``."""
+        return frame([(self.kind, self.n_hist, self.n_seen, self.critical_value, self.alpha,
+                       self.alarm)], ("test", "n_hist", "n_seen", "critical_value", "alpha", "alarm"))

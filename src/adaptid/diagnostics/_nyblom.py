@@ -8,6 +8,7 @@ import numpy as np
 
 from .._validation import param_error
 from ._pvalues import pvalue_efp
+from ._format import frame, htest_text, short_repr
 from ._sc_common import ols, regression_data
 
 __all__ = ["NyblomHansenResult", "nyblom_hansen"]
@@ -20,6 +21,20 @@ class NyblomHansenResult:
     statistic: float
     pvalue: float
     process: np.ndarray
+
+    def __repr__(self) -> str:
+        return short_repr("NyblomHansenResult", statistic=self.statistic, pvalue=self.pvalue,
+                          break_index=self.break_index)
+
+    def summary(self) -> str:
+        """The test as strucchange's ``print(sctest(..., type = "Nyblom-Hansen"))`` prints it."""
+        return htest_text("Nyblom-Hansen test", "X, y", [("L", self.statistic)], self.pvalue,
+                          [f"break index (0-based): {self.break_index}"])
+
+    def to_frame(self):
+        """One row: ``test``, ``statistic``, ``pvalue``, ``break_index``."""
+        return frame([("nyblom", self.statistic, self.pvalue, self.break_index)],
+                     ("test", "statistic", "pvalue", "break_index"))
 
     @property
     def break_index(self) -> int:

@@ -8,6 +8,7 @@ import numpy as np
 
 from .._teststats import cross_correlation, ljung_box
 from .._validation import as_float_array, check_int, check_scalar, param_error
+from ._format import frame, htest_text
 
 __all__ = [
     "AutocorrelationResult",
@@ -60,6 +61,16 @@ class AutocorrelationResult:
         return (f"AutocorrelationResult(max_lag={self.lags[-1]}, q_stat={self.q_stat:.4g}, "
                 f"dof={self.dof}, p_value={self.p_value:.4g}, white={self.white})")
 
+    def summary(self) -> str:
+        """The test as R's ``print(Box.test(e, lag, type = "Ljung-Box"))`` prints it."""
+        return htest_text("Box-Ljung test", "residuals", [("X-squared", self.q_stat), ("df", self.dof)],
+                          self.p_value, [f"white at alpha = {self.alpha:g}: {self.white}"])
+
+    def to_frame(self):
+        """One row: ``test``, ``statistic``, ``dof``, ``pvalue``, ``white``."""
+        return frame([("ljung-box", self.q_stat, self.dof, self.p_value, self.white)],
+                     ("test", "statistic", "dof", "pvalue", "white"))
+
 
 @dataclass(frozen=True, eq=False)
 class CrossCorrelationResult:
@@ -103,6 +114,17 @@ class CrossCorrelationResult:
     def __repr__(self) -> str:
         return (f"CrossCorrelationResult(max_lag={self.lags[-1]}, q_stat={self.q_stat:.4g}, "
                 f"dof={self.dof}, p_value={self.p_value:.4g}, independent={self.independent})")
+
+    def summary(self) -> str:
+        """The portmanteau test of residual–input independence in the layout of ``print.htest``."""
+        return htest_text("Cross-correlation test of residuals and input", "residuals, input",
+                          [("X-squared", self.q_stat), ("df", self.dof)], self.p_value,
+                          [f"independent at alpha = {self.alpha:g}: {self.independent}"])
+
+    def to_frame(self):
+        """One row: ``test``, ``statistic``, ``dof``, ``pvalue``, ``independent``."""
+        return frame([("cross-correlation", self.q_stat, self.dof, self.p_value, self.independent)],
+                     ("test", "statistic", "dof", "pvalue", "independent"))
 
 
 def _centred(x, name):
