@@ -186,7 +186,8 @@ def _no_type_docstring(app, what, name, obj, options, lines):
     """A constant (``METHODS``, ``__version__``) has no docstring of its own:
     show none rather than its type's (``tuple``'s "Built-in immutable sequence")."""
     if what in ("data", "attribute") and type(obj).__module__ == "builtins":
-        if " ".join(lines).split() == (type(obj).__doc__ or "").split():
+        own = type(obj).__doc__
+        if isinstance(own, str) and " ".join(lines).split() == own.split():
             lines[:] = []
 
 

@@ -16,7 +16,7 @@
   with one verdict).
 """
 
-from ._breakpoints import BreakConfidenceWarning, BreakConfint, BreakpointsResult, breakpoints
+from ._breakpoints import BreakConfidenceWarning, BreakpointsResult, breakpoints
 from ._change import ChangeTest, ChangeTests, change_tests
 from ._cusum import CusumResult, cusum, cusum_squares
 from ._efp import EfpResult, efp
@@ -53,7 +53,6 @@ __all__ = [
     "NyblomHansenResult",
     "breakpoints",
     "BreakpointsResult",
-    "BreakConfint",
     "BreakConfidenceWarning",
     "Monitor",
     "change_tests",
