@@ -278,3 +278,31 @@ def test_bad_max_specialised_n_in_a_real_process(data, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "ADAPTID_MAX_SPECIALISED_N" in proc.stderr
     json.loads(proc.stdout)
+
+
+# ------------------------------------------------ issue 32, point 5: the columns used
+@pytest.mark.parametrize("phi", ["a,a", "a,b,a"])
+def test_duplicated_phi_column_refused(data, phi):
+    path, *_ = data
+    one_line_error(invoke("fit", path, "--y", "y", "--phi", phi), "--phi", "'a' twice")
+
+
+def test_no_samples_left_after_nan_skip(tmp_path):
+    path = tmp_path / "n.csv"
+    rng = np.random.default_rng(1)
+    pd.DataFrame({"a": rng.standard_normal(20), "c": np.nan, "y": rng.standard_normal(20)}
+                 ).to_csv(path, index=False)
+    one_line_error(invoke("fit", path, "--y", "y", "--phi", "a,c", "--nan", "skip"),
+                   str(path), "no samples left", "'c'")
+    res = invoke("fit", path, "--y", "y", "--phi", "a", "--nan", "skip", "--json")
+    assert res.exit_code == 0, res.output
+
+
+def test_fewer_samples_than_parameters_warns(data, tmp_path):
+    path, *_ = data
+    short = tmp_path / "short.csv"
+    short.write_text("".join(path.read_text().splitlines(keepends=True)[:3]))
+    res = invoke("fit", short, *FIT, "--json")
+    assert res.exit_code == 0, res.output
+    assert "2 samples for 3 parameters" in res.stderr
+    json.loads(res.stdout)

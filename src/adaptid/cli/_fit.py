@@ -113,6 +113,10 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
             # later --resume may fill it
             raise CLIError(f"--window must be at most the number of samples ({len(y)}, "
                            f"{title}) unless --save-state is given, got {spec.window}")
+    for title, names, Phi, y, index in problem.equations:
+        if Phi is not None and est0 is None and len(y) < Phi.shape[1]:
+            output.warn(f"{title}: {len(y)} samples for {Phi.shape[1]} parameters; the data "
+                        "do not determine the estimate (it stays near the prior)")
     want_cusum = out is not None and problem.kind not in ("arma", "bj")
     total = sum(len(eq[3]) for eq in problem.equations)
     fits, fitted_models = [], {}
