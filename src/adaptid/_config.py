@@ -200,7 +200,21 @@ NJIT_INLINE = dict(cache=CACHE, inline="always", fastmath={"contract"})
 
 #: Largest number of parameters for which kernels are specialised (n as a
 #: compile-time constant, loops unrolled). Larger n use the generic kernels.
-MAX_SPECIALISED_N = int(os.environ.get("ADAPTID_MAX_SPECIALISED_N", "16"))
+def _env_int(name: str, default: int) -> int:
+    """An integer from the environment; a value that is none warns and gives ``default``."""
+    text = os.environ.get(name)
+    if text is None:
+        return default
+    try:
+        return int(text)
+    except ValueError:
+        shown = text if len(text) <= 40 else text[:37] + "..."
+        warnings.warn(f"adaptid: environment variable {name} must be an integer, got "
+                      f"{shown!r}; using the default {default}", RuntimeWarning, stacklevel=2)
+        return default
+
+
+MAX_SPECIALISED_N = _env_int("ADAPTID_MAX_SPECIALISED_N", 16)
 
 #: Removal of a sample from a sliding window is refused, and the window
 #: re-solved from its buffer, when ``1 - c φᵀPφ`` (the ratio of the

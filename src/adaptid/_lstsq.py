@@ -193,7 +193,9 @@ class LSResult:
     def rsquared_adj(self):
         r"""Adjusted R²: :math:`1 - \frac{N - k_c}{N - n}(1 - R^2)`, k_c constant columns."""
         with np.errstate(divide="ignore", invalid="ignore"):
-            out = 1.0 - (self.nobs - self._k_constant) / self.dof * (1.0 - np.asarray(self.rsquared))
+            # dof = 0 (a saturated fit, N == n): undefined, NaN as statsmodels
+            ratio = (self.nobs - self._k_constant) / self.dof if self.dof > 0 else np.nan
+            out = 1.0 - ratio * (1.0 - np.asarray(self.rsquared))
         return float(out) if self._single else out
 
     @cached_property

@@ -5,6 +5,7 @@ Every message has the form ``"<name> must be <expected>, got <found>"``.
 
 from __future__ import annotations
 
+import math
 import numbers
 import operator
 
@@ -122,7 +123,13 @@ def check_scalar(x, name: str, *, low=None, high=None, low_open=False,
             x = x.item()
         else:
             raise param_error(name, "a real number", x, exc=TypeError)
-    val = float(x)
+    try:
+        val = float(x)
+    except OverflowError:  # a Python int beyond the float range
+        val = math.inf if x > 0 else -math.inf
+        if finite:
+            raise param_error(name, "a finite real number (within the float range)",
+                              "<an integer too large for a float>") from None
     lo_b = "(" if low_open else "["
     hi_b = ")" if high_open else "]"
     interval = f"in {lo_b}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_b}"

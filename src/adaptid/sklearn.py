@@ -42,6 +42,25 @@ def _validate(est, X, y="no_validation", *, reset, **kw):
     return est._validate_data(X, y, reset=reset, **kw)  # pragma: no cover
 
 
+def _refuse_text(value, name):
+    """Refuse text data ("1.5") as the core API's ``as_float_array`` does.
+
+    scikit-learn's ``check_array`` would parse numeric strings; adaptid's
+    arrays are numbers, so ``RLSRegressor`` refuses them like ``RLS.run``.
+    """
+    probe = value if isinstance(value, np.ndarray) else getattr(value, "to_numpy", None)
+    if probe is None:
+        try:
+            probe = np.asarray(value)
+        except Exception:  # noqa: BLE001 - ragged input: check_array reports it
+            return
+    elif not isinstance(probe, np.ndarray):
+        probe = probe()
+    kind = probe.dtype.kind
+    if kind in "USV" or (kind == "O" and any(isinstance(v, (str, bytes)) for v in probe.flat)):
+        raise param_error(name, "a real numeric array (not text)", probe, exc=TypeError)
+
+
 def _is_one(value) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and \
         not isinstance(value, (bool, np.bool_)) and float(value) == 1.0
@@ -255,6 +274,8 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
             self.intercept_ = theta[nf].copy() if self.fit_intercept else np.zeros(theta.shape[1])
 
     def _check_xy(self, X, y, reset):
+        _refuse_text(X, "X")
+        _refuse_text(y, "y")
         X, y = _validate(self, X, y, reset=reset, dtype=np.float64, multi_output=True,
                          y_numeric=True)
         y = np.asarray(y, dtype=np.float64)
@@ -322,5 +343,6 @@ class RLSRegressor(RegressorMixin, BaseEstimator):
         ndarray, shape (N,) or (N, n_outputs)
         """
         check_is_fitted(self)
+        _refuse_text(X, "X")
         X = _validate(self, X, reset=False, dtype=np.float64)
         return self.estimator_.predict(self._design(X))

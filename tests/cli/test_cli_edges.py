@@ -237,3 +237,72 @@ def test_save_state_onto_a_fifo_refused(data, tmp_path):
     one_line_error(invoke("fit", path, *FIT, "--method", "rls", "--tracks", tracks), "--tracks",
                    "FIFO")
     assert stat.S_ISFIFO(os.stat(tracks).st_mode)
+
+
+# ------------------------------------------- issue 32: errors that name the option
+def test_huge_window_refused_before_allocating(data):
+    path, *_ = data
+    one_line_error(invoke("fit", path, *FIT, "--method", "window", "--window", "1000000000"),
+                   "--window", "1e+08")
+
+
+def test_window_longer_than_the_data_refused(data, tmp_path):
+    path, *_ = data
+    one_line_error(invoke("fit", path, *FIT, "--method", "window", "--window", "201"),
+                   "--window", "200", "--save-state")
+    # with --save-state a later --resume may fill the window: accepted
+    res = invoke("fit", path, *FIT, "--method", "window", "--window", "201",
+                 "--save-state", tmp_path / "s.npz")
+    assert res.exit_code == 0, res.output
+
+
+def test_c_keyword_as_c_name(data, tmp_path):
+    path, *_ = data
+    one_line_error(invoke("fit", path, *FIT, "--export-c", tmp_path / "c", "--c-name", "int"),
+                   "--c-name", "keyword")
+
+
+def test_tiny_cutoff_names_cutoff(tmp_path):
+    d, _ = adaptid.datasets.dc_motor(seed=1, duration=1.0)
+    path = tmp_path / "motor.csv"
+    d.to_csv(path, index=False)
+    one_line_error(invoke("fit", path, "--dc-motor", "--cutoff", "1e-300"), "cutoff", "1e-300")
+
+
+def test_bad_max_specialised_n_in_a_real_process(data, tmp_path):
+    import os
+    path, *_ = data
+    env = dict(os.environ, ADAPTID_MAX_SPECIALISED_N="abc")
+    proc = subprocess.run([sys.executable, "-m", "adaptid", "fit", str(path), *FIT, "--json"],
+                          capture_output=True, text=True, cwd=tmp_path, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert "ADAPTID_MAX_SPECIALISED_N" in proc.stderr
+    json.loads(proc.stdout)
+
+
+# ------------------------------------------------ issue 32, point 5: the columns used
+@pytest.mark.parametrize("phi", ["a,a", "a,b,a"])
+def test_duplicated_phi_column_refused(data, phi):
+    path, *_ = data
+    one_line_error(invoke("fit", path, "--y", "y", "--phi", phi), "--phi", "'a' twice")
+
+
+def test_no_samples_left_after_nan_skip(tmp_path):
+    path = tmp_path / "n.csv"
+    rng = np.random.default_rng(1)
+    pd.DataFrame({"a": rng.standard_normal(20), "c": np.nan, "y": rng.standard_normal(20)}
+                 ).to_csv(path, index=False)
+    one_line_error(invoke("fit", path, "--y", "y", "--phi", "a,c", "--nan", "skip"),
+                   str(path), "no samples left", "'c'")
+    res = invoke("fit", path, "--y", "y", "--phi", "a", "--nan", "skip", "--json")
+    assert res.exit_code == 0, res.output
+
+
+def test_fewer_samples_than_parameters_warns(data, tmp_path):
+    path, *_ = data
+    short = tmp_path / "short.csv"
+    short.write_text("".join(path.read_text().splitlines(keepends=True)[:3]))
+    res = invoke("fit", short, *FIT, "--json")
+    assert res.exit_code == 0, res.output
+    assert "2 samples for 3 parameters" in res.stderr
+    json.loads(res.stdout)

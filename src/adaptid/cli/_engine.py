@@ -23,6 +23,7 @@ import numpy as np
 
 from adaptid.estimators._factory import METHODS as _RECURSIVE
 from adaptid.estimators._factory import method_options, required_options
+from adaptid.estimators._stateread import MAX_WINDOW
 
 from ._errors import CLIError
 
@@ -89,6 +90,9 @@ class MethodSpec:
             raise CLIError("--save-state does not apply to --method batch (no recursive state)")
         if self.window is not None and self.window < 1:
             raise CLIError(f"--window must be a positive integer, got {self.window}")
+        if self.window is not None and self.window > MAX_WINDOW:
+            # the largest window a state file holds; a buffer beyond it is gigabytes
+            raise CLIError(f"--window must be at most {MAX_WINDOW:.0e}, got {self.window}")
         check_ranges(forgetting=self.forgetting, P0=self.P0, process_cov=self.process_cov,
                      noise_var=self.noise_var)
 

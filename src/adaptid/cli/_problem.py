@@ -188,6 +188,11 @@ def _nan_check(table: Table, cols: dict, nan_policy: str) -> int:
         raise CLIError(f"{table.path}: {count} row(s) with missing values (empty, NA or NaN) in the "
                        f"columns used, rows {', '.join(map(str, rows))}{more} (first in column "
                        f"{col!r}, row {at + 1}); use --nan skip to skip them")
+    if count and count == N:
+        empty = [name for name, x in cols.items() if np.isnan(x).all()]
+        why = f" (column {empty[0]!r} is all missing)" if empty else ""
+        raise CLIError(f"{table.path}: no samples left after --nan skip: all {N} rows have a "
+                       f"missing value in the columns used{why}")
     return count
 
 
@@ -230,6 +235,12 @@ def _record(table: Table, s: Structure, nan_policy: str):
     kind = s.kind
     in_names = s.phi if kind == "phi" else s.u if kind in ("arx", "fir", "bj") else []
     cols = table.expand(in_names, "--phi" if kind == "phi" else "--u") if in_names else []
+    opt = "--phi" if kind == "phi" else "--u"
+    seen = set()
+    for name in cols:
+        if name in seen:  # the same regressor twice: Φ rank-deficient, the state ambiguous
+            raise CLIError(f"{opt} must name each column once, got {name!r} twice")
+        seen.add(name)
     y = table.column(s.y, "--y")
     X = table.columns(cols, "--phi" if kind == "phi" else "--u") if cols else np.zeros((len(y), 0))
     if cols and len(y) != len(X):

@@ -237,6 +237,11 @@ def efp(X, y, *, kind, h=0.15):
     h = check_scalar(h, "h", low=0.0, high=1.0, low_open=True, high_open=True)
     X, y = regression_data(X, y, min_rows=None)
     N, n = X.shape
+    # the recursive residuals' σ̂ needs two of them (rec-MOSUM: N - 2n > 0 too)
+    need = {"rec-cusum": n + 2, "rec-mosum": max(n + 2, 2 * n + 1)}.get(kind, n + 1)
+    if N < need:
+        raise param_error("X", f"at least {need} rows long for kind={kind!r} "
+                               f"with {n} column(s)", f"<shape {X.shape}>")
     theta, e = ols(X, y)
     par = None
     if kind == "rec-cusum":

@@ -69,6 +69,7 @@ from pathlib import Path
 import numpy as np
 
 from .._exceptions import StateFileError
+from .._validation import param_error
 from . import _stateread as _sr
 
 FORMAT = 2  # 2: U stored by columns in the state vector (1: by rows; not read)
@@ -279,13 +280,25 @@ def remove_orphans(target: Path, now=None) -> list:
     return removed
 
 
+def _state_path(path, exc=ValueError) -> Path:
+    """``path`` as a Path, refusing what no file system takes (a NUL byte)."""
+    try:
+        raw = os.fspath(path)
+    except TypeError:
+        raise param_error("path", "a str or os.PathLike file name", path,
+                          exc=TypeError) from None
+    if ("\0" if isinstance(raw, str) else b"\0") in raw:
+        raise param_error("path", "a file name without NUL bytes", path, exc=exc)
+    return Path(os.fsdecode(raw))
+
+
 def save_state(est, path) -> None:
     """Write ``est.get_state()`` to ``path`` atomically (see module docstring)."""
     header, arrays = _payload(est.get_state())
     header["checksum"] = _digest(header, arrays)
     buf = io.BytesIO()
     np.savez(buf, header=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8), **arrays)
-    target = _target(Path(os.fspath(path)))
+    target = _target(_state_path(path))
     kind = special_kind(target)
     if kind is not None:
         raise ValueError(f"path must be a regular file or a new name, got {str(path)!r} "
@@ -338,7 +351,7 @@ def load_state(path):
     --------
     RLS.load_state : the same, refusing a file of another estimator type.
     """
-    path = Path(os.fspath(path))
+    path = _state_path(path, StateFileError)
     with _sr.open_regular(path) as fh:
         try:
             _sr.check_end_record(path, fh)

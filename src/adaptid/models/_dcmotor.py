@@ -3,6 +3,7 @@ r"""Regressors of the permanent-magnet DC motor's physics (electrical and mechan
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -262,7 +263,16 @@ def dc_motor_regressors(time, voltage, current, speed, *, cutoff=None, filter_or
     """
     v, i, w, dt = _check_signals(time, voltage, current, speed)
     order, cutoff = _check_options(dt, cutoff, filter_order, voltage_hold, speed_kind)
-    cols = _filtered_columns(dt, cutoff, order, voltage_hold, speed_kind, v, i, w)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            cols = _filtered_columns(dt, cutoff, order, voltage_hold, speed_kind, v, i, w)
+    except np.linalg.LinAlgError:
+        # poles exp(-2π·cutoff·dt) that round to 1: the filter's steady state is singular
+        raise param_error("cutoff", f"large enough for the filter to be discretised "
+                          f"(above about fs·1e-8 = {1e-8 / dt:.3g} Hz)", cutoff) from None
+    for rec in caught:  # the warnings of a filter that worked, as they were
+        warnings.warn_explicit(rec.message, rec.category, rec.filename, rec.lineno)
     meta = {"dt": dt, "cutoff": cutoff, "filter_order": order,
             "voltage_hold": voltage_hold, "speed_kind": speed_kind}
     index = np.arange(v.shape[0])

@@ -25,9 +25,19 @@ def _is_model(obj):
 
 def _split_models(data, models):
     """``f(data, *models)`` or ``f(y, u, *models)``: the record and the models."""
+    if models and isinstance(models[0], (str, bytes)):
+        # a model's name ("ARX") is neither an input signal nor a model
+        raise param_error("models", "fitted models (with predict), not their names",
+                          models[0], exc=TypeError)
     if models and not _is_model(models[0]):
-        return _as_iddata(data, "data", models[0]), models[1:]
-    return _as_iddata(data), models
+        data, models = _as_iddata(data, "data", models[0]), models[1:]
+    else:
+        data = _as_iddata(data)
+    for i, m in enumerate(models):
+        if not _is_model(m):
+            raise param_error(f"models[{i}]", "a fitted model (with predict)", m,
+                              exc=TypeError)
+    return data, models
 
 
 def _single_output(data, name="data"):
