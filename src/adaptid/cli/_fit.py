@@ -103,20 +103,7 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     if est0 is not None:
         n = problem.equations[0][2].shape[1]
         est0 = spec.adopt(est0, n, policy, resume)
-    for title, names, Phi, y, index in problem.equations:
-        if len(y) == 0:
-            raise CLIError(f"{table.path}: no samples left for the {title} regression "
-                           f"({problem.n_rows} rows in the file)")
-        if (est0 is None and save_state is None and spec.resolved == "window"
-                and spec.window is not None and spec.window > len(y)):
-            # checked before the window's buffer is allocated; with --save-state a
-            # later --resume may fill it
-            raise CLIError(f"--window must be at most the number of samples ({len(y)}, "
-                           f"{title}) unless --save-state is given, got {spec.window}")
-    for title, names, Phi, y, index in problem.equations:
-        if Phi is not None and est0 is None and len(y) < Phi.shape[1]:
-            output.warn(f"{title}: {len(y)} samples for {Phi.shape[1]} parameters; the data "
-                        "do not determine the estimate (it stays near the prior)")
+    _check_sample_counts(table, problem, spec, est0=est0, save_state=save_state, output=output)
     want_cusum = out is not None and problem.kind not in ("arma", "bj")
     total = sum(len(eq[3]) for eq in problem.equations)
     fits, fitted_models = [], {}
@@ -167,6 +154,24 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
             raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err})") from None
     _print(output, result, fits, physical, summ)
     return result
+
+
+def _check_sample_counts(table, problem, spec, *, est0, save_state, output):
+    """Refuse an equation with no samples or a window longer than the data; warn when N < n."""
+    for title, names, Phi, y, index in problem.equations:
+        if len(y) == 0:
+            raise CLIError(f"{table.path}: no samples left for the {title} regression "
+                           f"({problem.n_rows} rows in the file)")
+        if (est0 is None and save_state is None and spec.resolved == "window"
+                and spec.window is not None and spec.window > len(y)):
+            # checked before the window's buffer is allocated; with --save-state a
+            # later --resume may fill it
+            raise CLIError(f"--window must be at most the number of samples ({len(y)}, "
+                           f"{title}) unless --save-state is given, got {spec.window}")
+    for title, names, Phi, y, index in problem.equations:
+        if Phi is not None and est0 is None and len(y) < Phi.shape[1]:
+            output.warn(f"{title}: {len(y)} samples for {Phi.shape[1]} parameters; the data "
+                        "do not determine the estimate (it stays near the prior)")
 
 
 def _write_outputs(result, problem, fits, *, tracks, export_c, c_name, float32):
