@@ -142,10 +142,50 @@ def _generic_kernels():
 
 
 @contextmanager
-def _guard(out: Output):
-    """Turn every exception into one line on stderr (plus a traceback with --debug)."""
+def _terminate_as_interrupt():
+    """SIGTERM raises KeyboardInterrupt while a command runs (main thread only).
+
+    The default action of SIGTERM ends the process at once, so ``finally``
+    blocks never run and temporary files (``.tracks.csv.<pid>.tmp``, a
+    report's staging folder, a state's temporary file) stay behind.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGTERM, interrupt)
+    except (ValueError, OSError):  # pragma: no cover - no signals here
+        yield
+        return
     try:
         yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextmanager
+def _guard(out: Output):
+    """Turn every exception into one line on stderr (plus a traceback with --debug).
+
+    Whatever ends the command early (an error, Ctrl-C, SIGTERM) first removes
+    the staging folders of unfinished reports: outputs appear whole or not at all.
+    """
+    try:
+        with _terminate_as_interrupt():
+            try:
+                yield
+            except BaseException:
+                from ._report import discard_open_reports
+
+                discard_open_reports()
+                raise
     except (typer.Exit, typer.Abort):
         raise
     except CLIError as err:
@@ -319,11 +359,10 @@ def fit(
         spec = MethodSpec(method=method, forgetting=forgetting, window=window,
                           process_cov=process_cov, noise_var=noise_var,
                           P0=parse_P0(p0), step=step, eps=eps)
-        result = run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
-                         save_state=save_state, resume=resume, output=out, tracks=tracks,
-                         summary=summary, export_c=export_c, c_name=c_name, float32=float32)
-        if out.json:
-            out.emit_json(result)
+        # run_fit prints (and emits --json) itself, before it saves the state
+        run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
+                save_state=save_state, resume=resume, output=out, tracks=tracks,
+                summary=summary, export_c=export_c, c_name=c_name, float32=float32)
 
 
 # -------------------------------------------------------------------- fleet

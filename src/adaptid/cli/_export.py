@@ -20,6 +20,9 @@ def export_c(state_file: Path, out: Path, name: str = "rls", float32: bool = Fal
     """Load ``state_file`` and write the C files; returns their paths. Errors: CLIError."""
     from adaptid import load_state
 
+    from ._targets import c_targets, check_targets
+
+    check_targets([("STATE_FILE", state_file)], c_targets(out, name, "--out"))
     try:
         est = load_state(state_file)
     except ValueError as err:  # StateFileError: unreadable, damaged, not a state file

@@ -14,6 +14,7 @@ from ._errors import CLIError
 from ..io import read_table
 from ._output import Output
 from ._problem import Problem, Structure, build_problem
+from ._targets import c_targets, check_targets, report_targets, state_lock
 
 __all__ = ["run_fit"]
 
@@ -21,13 +22,36 @@ N_CHUNKS = 200
 
 
 def _load_resume(path):
+    """``(estimator, labels)`` of the ``--resume`` file (labels None for a Python save)."""
     from adaptid._exceptions import StateFileError
-    from adaptid.estimators import load_state
+    from adaptid.estimators._statefile import load_state_labelled
 
     try:
-        return load_state(path)
+        return load_state_labelled(path)
     except StateFileError as err:
         raise CLIError(f"--resume: {err}") from None
+
+
+def _labels(structure: Structure, problem: Problem) -> dict:
+    """What a state saved by ``fit`` means: the model, the output and the regressors."""
+    title, names = problem.equations[0][0], problem.equations[0][1]
+    return {"saved_by": "adaptid fit", "model": problem.kind, "output": str(structure.y or title),
+            "regressors": [str(n) for n in names]}
+
+
+def _check_labels(labels, want: dict, resume) -> None:
+    """Refuse to resume a state saved for another model, output or regressor order."""
+    if labels is None or labels.get("saved_by") != "adaptid fit":
+        return  # saved from Python: only the parameter count can be checked
+    for key, what in (("model", "model"), ("output", "output"), ("regressors", "regressors")):
+        have, given = labels.get(key), want[key]
+        if have != given:
+            show = (lambda v: ",".join(v) if isinstance(v, list) else str(v))
+            order = (" (the same names in another order)" if key == "regressors"
+                     and isinstance(have, list) and sorted(have) == sorted(given) else "")
+            raise CLIError(f"--resume {resume}: the state was saved for {what} {show(have)!r}, "
+                           f"this run has {show(given)!r}{order}; use the options it was saved "
+                           "with or start a new state")
 
 
 def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume, tracks,
@@ -90,11 +114,19 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     _check_extras(structure, spec, save_state=save_state, resume=resume, tracks=tracks,
                   export_c=export_c, c_name=c_name)
     check_outputs(data, out=out, save_state=save_state, resume=resume)
-    for opt, target in (("--tracks", tracks), ("--export-c", export_c)):
-        if target is not None and os.path.exists(target) and os.path.exists(data) \
-                and os.path.samefile(target, data):
-            raise CLIError(f"{opt} {target} is the data file; choose another name")
-    est0 = _load_resume(resume) if resume is not None else None
+    check_targets([("DATA", data), ("--resume", resume)],
+                  report_targets(out) + [("--tracks", tracks), ("--save-state", save_state)]
+                  + c_targets(export_c, c_name), allowed={("--save-state", "--resume")})
+    with state_lock(save_state if save_state is not None else resume):
+        return _run_fit_locked(data, structure, spec, nan=nan, out=out, save_state=save_state,
+                               resume=resume, output=output, tracks=tracks, summary=summary,
+                               export_c=export_c, c_name=c_name, float32=float32, t0=t0)
+
+
+def _run_fit_locked(data, structure, spec, *, nan, out, save_state, resume, output, tracks,
+                    summary, export_c, c_name, float32, t0) -> dict:
+    """``run_fit`` after the checks, holding the state lock: read, fit, report, save."""
+    est0, labels = _load_resume(resume) if resume is not None else (None, None)
 
     table = read_table(data)
     output.detail(f"read {table.path} ({table.kind}): columns {', '.join(table.names[:20])}")
@@ -103,6 +135,7 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     if est0 is not None:
         n = problem.equations[0][2].shape[1]
         est0 = spec.adopt(est0, n, policy, resume)
+        _check_labels(labels, _labels(structure, problem), resume)
     _check_sample_counts(table, problem, spec, est0=est0, save_state=save_state, output=output)
     want_cusum = out is not None and problem.kind not in ("arma", "bj")
     total = sum(len(eq[3]) for eq in problem.equations)
@@ -142,17 +175,25 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
         summ = summaries(problem, fits, fitted_models)
         result["summary"] = [summary_json(x) for x in summ]
     result["elapsed_s"] = _time.perf_counter() - t0
+    rep = None
     if out is not None:
-        result["report"] = str(_write_report(out, table, problem, fits, physical, result,
-                                             checks=checks))
+        rep = _write_report(out, table, problem, fits, physical, result, checks=checks)
+        result["report"] = str(rep.out / "index.html")
     _write_outputs(result, problem, fits, tracks=tracks, export_c=export_c, c_name=c_name,
                    float32=float32)
-    if save_state is not None:  # last, after everything else succeeded (save_state is atomic)
-        try:
-            fits[0].estimator.save_state(save_state)
-        except OSError as err:
-            raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err})") from None
+    if rep is not None:
+        rep.commit()  # after the other outputs: a failure there leaves no report
     _print(output, result, fits, physical, summ)
+    if output.json:
+        output.emit_json(result)  # a failed write (a full disk) stops here, state unsaved
+    if save_state is not None:  # last, after everything else succeeded (save_state is atomic)
+        from adaptid.estimators._statefile import save_state as _save
+
+        try:
+            _save(fits[0].estimator, save_state, labels=_labels(structure, problem))
+        except OSError as err:
+            raise CLIError(f"--save-state {save_state}: cannot write ({err.strerror or err}); "
+                           "the results above were not saved") from None
     return result
 
 
@@ -362,6 +403,7 @@ def _report_checks(rep, checks):
 
 
 def _write_report(out, table, problem: Problem, fits: list, physical, result, checks=None):
+    """The report, staged (the caller commits it after the other outputs)."""
     from ._report import Report, constancy_figure, constancy_verdict, errors_figure
 
     rep = Report(out, f"adaptid fit: {Path(table.path).name}",
@@ -429,4 +471,5 @@ def _write_report(out, table, problem: Problem, fits: list, physical, result, ch
         for k, (v, se) in physical.items():
             estimates.append({"name": k, "method": fits[0].method, "estimate": v, "stderr": se,
                               "truth": None})
-    return rep.write(estimates)
+    rep.write(estimates, commit=False)
+    return rep

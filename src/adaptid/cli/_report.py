@@ -13,6 +13,8 @@ import csv
 import html
 import math
 import os
+import shutil
+import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -70,6 +72,7 @@ class Report:
 
     def __init__(self, out_dir, title: str, subtitle: str = ""):
         self.out = Path(os.fspath(out_dir))
+        self._created = not self.out.exists()
         try:
             self.out.mkdir(parents=True, exist_ok=True)
         except OSError as err:
@@ -77,6 +80,15 @@ class Report:
                            f"({err.strerror or err})") from None
         if not os.access(self.out, os.W_OK):
             raise CLIError(f"--out {self.out}: the folder is not writable")
+        # files are written into a hidden staging folder inside ``out`` and moved
+        # into place by write(): an interrupted or failed run leaves no partial report
+        try:
+            self._stage = Path(tempfile.mkdtemp(prefix=f".adaptid-report.{os.getpid()}.",
+                                                dir=self.out))
+        except OSError as err:
+            raise CLIError(f"--out {self.out}: cannot write in the report folder "
+                           f"({err.strerror or err})") from None
+        _OPEN.add(self)
         self.title = title
         self.subtitle = subtitle
         self._parts = []
@@ -118,7 +130,7 @@ class Report:
         """Save ``fig`` (a matplotlib Figure) as ``filename`` and link it."""
         _, Canvas = _require_matplotlib()
         Canvas(fig)
-        path = self.out / filename
+        path = self._stage / filename
         try:
             fig.savefig(path, dpi=100, format="png")
         except OSError as err:
@@ -131,11 +143,15 @@ class Report:
         return self
 
     # -------------------------------------------------------------- output
-    def write(self, estimates: list) -> Path:
-        """Write ``estimates.csv`` (rows: name, method, estimate, stderr, truth) and ``index.html``."""
+    def write(self, estimates: list, *, commit=True) -> Path:
+        """Write ``estimates.csv`` (rows: name, method, estimate, stderr, truth) and ``index.html``.
+
+        With ``commit=False`` the files stay staged until :meth:`commit` (so a
+        command can put its report in place only after its other outputs).
+        """
         from adaptid import __version__
 
-        csv_path = self.out / "estimates.csv"
+        csv_path = self._stage / "estimates.csv"
         try:
             with open(csv_path, "w", newline="", encoding="utf-8") as fh:
                 w = csv.writer(fh)
@@ -158,12 +174,43 @@ class Report:
               "<a href=\"estimates.csv\">estimates.csv</a> (name, method, estimate, stderr, truth).</p>"
             + f"<p class=\"note\">Written by adaptid {html.escape(__version__)} on {stamp}.</p></section>"
             + "</main></body></html>\n")
-        index = self.out / "index.html"
         try:
-            index.write_text(doc, encoding="utf-8")
+            (self._stage / "index.html").write_text(doc, encoding="utf-8")
         except OSError as err:
             raise CLIError(f"--out {self.out}: cannot write index.html ({err.strerror or err})") from None
-        return index
+        self.files.append("index.html")
+        if commit:
+            self.commit()
+        return self.out / "index.html"
+
+    def commit(self):
+        """Move the staged files into the report folder (each atomically, index.html last)."""
+        try:
+            for name in dict.fromkeys(self.files):
+                os.replace(self._stage / name, self.out / name)
+        except OSError as err:
+            raise CLIError(f"--out {self.out}: cannot write {name} ({err.strerror or err})") from None
+        self.discard()
+
+    def discard(self):
+        """Remove the staging folder (and ``out`` if this run created it and it is empty)."""
+        _OPEN.discard(self)
+        shutil.rmtree(self._stage, ignore_errors=True)
+        if self._created:
+            try:
+                self.out.rmdir()  # only when empty: a finished report stays
+            except OSError:
+                pass
+
+
+#: Reports being written by this process: removed by :func:`discard_open_reports`.
+_OPEN: set = set()
+
+
+def discard_open_reports() -> None:
+    """Remove the staging folders of unfinished reports (after an error or a signal)."""
+    for rep in list(_OPEN):
+        rep.discard()
 
 
 def _num(v):

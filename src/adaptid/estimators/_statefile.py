@@ -292,9 +292,48 @@ def _state_path(path, exc=ValueError) -> Path:
     return Path(os.fsdecode(raw))
 
 
-def save_state(est, path) -> None:
-    """Write ``est.get_state()`` to ``path`` atomically (see module docstring)."""
+def check_labels(labels, exc=ValueError, where="labels"):
+    """Validate the optional ``labels`` of a state file: what the numbers mean.
+
+    A flat JSON object whose keys are short strings and whose values are
+    strings or lists of strings (the command line stores the model
+    structure, the output and the regressor names there, and refuses to
+    resume a state under other ones). Returns a plain ``dict``.
+    """
+    def bad(what):
+        raise exc(f"{where} must be a dict of short strings or lists of strings ({what})")
+
+    if not isinstance(labels, dict) or len(labels) > _MAX_LABELS:
+        bad("not a dict" if not isinstance(labels, dict) else "too many keys")
+    out = {}
+    for key, value in labels.items():
+        if not isinstance(key, str) or len(key) > _MAX_LABEL_CHARS:
+            bad(f"key {str(key)[:40]!r}")
+        if isinstance(value, str):
+            items = [value]
+        elif isinstance(value, (list, tuple)) and len(value) <= _MAX_LABEL_ITEMS:
+            items = list(value)
+        else:
+            bad(f"value of {key!r}")
+        if not all(isinstance(v, str) and len(v) <= _MAX_LABEL_CHARS for v in items):
+            bad(f"value of {key!r}")
+        out[key] = value if isinstance(value, str) else list(items)
+    return out
+
+
+#: Bounds of the labels a state file may carry (JSON in the header).
+_MAX_LABELS, _MAX_LABEL_ITEMS, _MAX_LABEL_CHARS = 16, 4096, 256
+
+
+def save_state(est, path, *, labels=None) -> None:
+    """Write ``est.get_state()`` to ``path`` atomically (see module docstring).
+
+    ``labels`` (optional, see :func:`check_labels`) is stored in the header,
+    under the checksum; :func:`load_state_labelled` returns it.
+    """
     header, arrays = _payload(est.get_state())
+    if labels is not None:
+        header["labels"] = check_labels(labels)
     header["checksum"] = _digest(header, arrays)
     buf = io.BytesIO()
     np.savez(buf, header=np.frombuffer(json.dumps(header).encode(), dtype=np.uint8), **arrays)
@@ -351,6 +390,15 @@ def load_state(path):
     --------
     RLS.load_state : the same, refusing a file of another estimator type.
     """
+    return load_state_labelled(path)[0]
+
+
+def load_state_labelled(path):
+    """``(estimator, labels)`` of a state file; ``labels`` is None when it has none.
+
+    See :func:`load_state`; the labels are checked as :func:`check_labels`
+    does (a :class:`StateFileError` otherwise).
+    """
     path = _state_path(path, StateFileError)
     with _sr.open_regular(path) as fh:
         try:
@@ -364,8 +412,11 @@ def load_state(path):
             # EOFError, ...): all of it means a truncated or corrupted file
             raise StateFileError(f"{path}: truncated or corrupted state file "
                                  f"({type(err).__name__}: {str(err)[:120]})") from None
+    labels = header.pop("labels", None)
+    if labels is not None:
+        labels = check_labels(labels, StateFileError, f"{path}: labels")
     try:
-        return _build_from_file(header, arrays, cls, own)
+        return _build_from_file(header, arrays, cls, own), labels
     except StateFileError:
         raise
     except Exception as err:  # noqa: BLE001 - the constructors validate the options
