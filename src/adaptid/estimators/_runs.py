@@ -68,9 +68,13 @@ def run(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
     Th, E, skipped = self._alloc(Phi.shape[:1], store or want)
     Lk = np.empty(Phi.shape[0] if self._reports or self._diffuse else 0)
     St = stats_rows(self, Phi.shape[:1], want)
-    backup = self._backup()
-    code = self._kern.run(self._S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt,
-                          self._mat, self._ntag, self._ptag)
+    backup = self._S.copy()  # restored if the kernel raises: a failed run changes nothing
+    try:
+        code = self._kern.run(self._S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt,
+                              self._mat, self._ntag, self._ptag)
+    except BaseException:
+        self._S = backup
+        raise
     self._raise_if_skipped(skipped, Phi, Y, backup)
     self._count(skipped)
     self._report_codes(code, None)

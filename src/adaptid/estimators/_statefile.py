@@ -325,6 +325,17 @@ def check_labels(labels, exc=ValueError, where="labels"):
 _MAX_LABELS, _MAX_LABEL_ITEMS, _MAX_LABEL_CHARS = 16, 4096, 256
 
 
+def _check_savable(est, header, arrays) -> None:
+    """Nothing is saved that :func:`load_state` would refuse (sizes, values)."""
+    core = header.get("inner_estimator", header["estimator"])
+    try:
+        _sr.core_layout("state", dict(header), core)
+        _sr.check_content("state", core, header, arrays)
+    except StateFileError as err:
+        raise ValueError(f"the {type(est).__name__} cannot be saved: load_state would refuse "
+                         f"its {str(err)}") from None
+
+
 def save_state(est, path, *, labels=None) -> None:
     """Write ``est.get_state()`` to ``path`` atomically (see module docstring).
 
@@ -332,6 +343,7 @@ def save_state(est, path, *, labels=None) -> None:
     under the checksum; :func:`load_state_labelled` returns it.
     """
     header, arrays = _payload(est.get_state())
+    _check_savable(est, header, arrays)
     if labels is not None:
         header["labels"] = check_labels(labels)
     header["checksum"] = _digest(header, arrays)

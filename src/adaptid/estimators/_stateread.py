@@ -253,6 +253,60 @@ def _factor_ok(S, o, n, p):
             & np.all(np.isfinite(D) & (D > 0), axis=1))
 
 
+#: Relative tolerance of the symmetry and definiteness checks of a loaded P (the
+#: covariance form symmetrises each update; rounding stays far below this).
+SYM_RTOL = 1e-8
+
+
+def _sym_psd(M, *, definite, ref=0.0):
+    """Per row of M (rows, n, n): symmetric and positive (semi-)definite, to SYM_RTOL.
+
+    The tolerance is relative to max(|M|, ``ref``): P∞ of the diffuse start
+    goes from I to rounding-level zeros, judged against its start (ref 1).
+    """
+    scale = np.maximum(np.max(np.abs(M), axis=(1, 2)), ref)
+    n = M.shape[-1]
+    sym = np.max(np.abs(M - M.swapaxes(1, 2)), axis=(1, 2)) <= SYM_RTOL * scale
+    ok = sym.copy()
+    if ok.any():
+        lam = np.linalg.eigvalsh(0.5 * (M[ok] + M[ok].swapaxes(1, 2)))
+        floor = -SYM_RTOL * n * scale[ok]
+        ok[ok] = lam[:, 0] >= floor if not definite else (
+            (lam[:, 0] > 0) & np.all(np.diagonal(M[ok], axis1=1, axis2=2) > 0, axis=1))
+    return ok
+
+
+def _form_ok(S, form, n, p):
+    """The covariance block of RLS's ``form="covariance"`` (P) or ``"sqrt"`` (S, P = S Sᵀ).
+
+    P must be symmetric positive definite (P = 0, −I or an asymmetric P are
+    refused); S of full rank (S = 0 refused); the block's last n entries zero.
+    """
+    o = n * p
+    M = S[:, o:o + n * n].reshape(-1, n, n).swapaxes(1, 2)  # stored by columns
+    zeros = np.all(S[:, o + n * n:o + n * n + n] == 0.0, axis=1)
+    if form == "covariance":
+        return zeros & _sym_psd(M, definite=True)
+    sv = np.linalg.svd(M, compute_uv=False)
+    return zeros & (sv[:, -1] > np.finfo(float).tiny) & (sv[:, -1] > 1e-300 * sv[:, 0])
+
+
+def _tail_ok(kind, T, n):
+    """The exact diffuse start's tail (see :func:`diffuse_tail`), its flag already checked."""
+    if kind == "RLS":  # [flag, R (n·n, by rows, upper triangular, diag ≥ 0), z]
+        R = T[:, 1:1 + n * n].reshape(-1, n, n)
+        low = np.tril(np.ones((n, n), bool), -1)
+        return (np.all(R[:, low] == 0.0, axis=1)
+                & np.all(np.diagonal(R, axis1=1, axis2=2) >= 0.0, axis=1))
+    if kind == "KalmanRLS":  # [flag, rank steps, P∞ (n·n), P* (n·n)]
+        steps = T[:, 1]
+        ok = (steps == np.round(steps)) & (steps >= 0) & (steps <= n)
+        Pinf = T[:, 2:2 + n * n].reshape(-1, n, n)
+        Pst = T[:, 2 + n * n:2 + 2 * n * n].reshape(-1, n, n)
+        return ok & _sym_psd(Pinf, definite=False, ref=1.0) & _sym_psd(Pst, definite=False)
+    return np.ones(T.shape[0], bool)  # the window's [flag, stop]: scratch, any finite value
+
+
 def diffuse_tail(kind, n, p):
     """Length of the diffuse tail of a ``P0="diffuse"`` state (see ``_kernels.recursions._diffuse``)."""
     return {"RLS": 1 + n * n + n * p, "SlidingWindowRLS": 2,
@@ -267,19 +321,34 @@ def check_content(path, kind, header, arrays):
         if name in arrays and not np.all(np.isfinite(arrays[name])):
             refuse(path, f"array {name!r} holds NaN or inf")
     S = arrays["state"].reshape(-1, arrays["state"].shape[-1])
-    if kind in GRADIENT_KINDS or (kind == "RLS" and header["options"].get("form", "ud") != "ud"):
-        ok = np.all(np.isfinite(S), axis=1)  # θ and S (P = S Sᵀ) or P: any finite values
+    form = header["options"].get("form", "ud") if kind == "RLS" else "ud"
+    for what, ok in _content_checks(kind, form, S, n, p, tail):
+        if not ok.all():
+            row = int(np.flatnonzero(~ok)[0])
+            refuse(path, f"inconsistent state{' (stream %d)' % row if S.shape[0] > 1 else ''}:"
+                   f" {what}")
+
+
+def _content_checks(kind, form, S, n, p, tail):
+    """(what must hold, per-row verdict) in order; later ones assume the earlier hold."""
+    if kind in GRADIENT_KINDS:
+        yield "θ must be finite", np.all(np.isfinite(S), axis=1)
+        return
+    if form == "ud":
+        yield "θ must be finite, U unit upper triangular, D finite and > 0", _factor_ok(S, 0, n, p)
     else:
-        ok = _factor_ok(S, 0, n, p)
+        yield "θ and the covariance block must be finite", np.all(np.isfinite(S), axis=1)
+        yield ("P must be symmetric positive definite" if form == "covariance" else
+               "the square root S of P must have full rank"), _form_ok(S, form, n, p)
     if kind == "SlidingWindowRLS":
         core = n * p + n * n + n
-        ok &= np.all(np.isfinite(S[:, core:-core]), axis=1)     # L, indices, buffers
-        ok &= _factor_ok(S, S.shape[1] - core - tail, n, p)     # the prior's copy
-    if tail:  # flag 0 or 1, the rest finite
+        yield ("the window buffers must be finite and the prior's U, D valid",
+               np.all(np.isfinite(S[:, core:-core]), axis=1)
+               & _factor_ok(S, S.shape[1] - core - tail, n, p))
+    if tail:
         T = S[:, S.shape[1] - tail:]
-        ok &= np.isin(T[:, 0], (0.0, 1.0)) & np.all(np.isfinite(T), axis=1)
-    if not ok.all():
-        row = int(np.flatnonzero(~ok)[0])
-        refuse(path, f"inconsistent state{' (stream %d)' % row if S.shape[0] > 1 else ''}: "
-               "θ must be finite, U unit upper triangular, D finite and > 0, the window "
-               "buffers finite")
+        yield ("the diffuse start's flag must be 0 or 1 and its tail finite",
+               np.isin(T[:, 0], (0.0, 1.0)) & np.all(np.isfinite(T), axis=1))
+        yield ("the diffuse start's R must be upper triangular with a non-negative diagonal"
+               if kind == "RLS" else "the diffuse start's rank-step count must be an integer "
+               "in 0…n and its P∞, P* symmetric positive semi-definite"), _tail_ok(kind, T, n)
