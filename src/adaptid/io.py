@@ -75,8 +75,20 @@ class Table:
     _get: dict = field(repr=False)
     groups: dict = field(default_factory=dict)
 
+    def _count(self, name) -> int:
+        """How often ``name`` is in the header (a counter built once: wide files)."""
+        counts = self.__dict__.get("_counts")
+        if counts is None or counts[0] != len(self.names):
+            from collections import Counter
+
+            counts = (len(self.names), Counter(self.names))
+            self.__dict__["_counts"] = counts
+        return counts[1].get(name, 0)
+
     def to_pandas(self):
-        """The whole table as a pandas DataFrame (columns as stored: no conversion).
+        """The table as a pandas DataFrame (columns as stored: no conversion).
+
+        A table read with ``columns=`` holds only the columns read.
 
         Raises DataFileError for duplicate column names (ambiguous).
         """
@@ -86,7 +98,7 @@ class Table:
         if dup:
             raise DataFileError(f"{self.path}: column {dup[0]!r} appears "
                                 f"{self.names.count(dup[0])} times; rename the duplicates")
-        return pd.DataFrame({n: self._get[n]() for n in self.names})
+        return pd.DataFrame({n: self._get[n]() for n in self.names if n in self._get})
 
     # ------------------------------------------------------------ selection
     def expand(self, names, option: str) -> list:
@@ -105,7 +117,7 @@ class Table:
         Raises DataFileError naming the column (and the option that asked for it)
         if it is missing, ambiguous, non-numeric or holds an infinite value.
         """
-        count = self.names.count(name)
+        count = self._count(name)
         if count == 0:
             raise DataFileError(f"{self.path}: no column {name!r} (asked for by {option}); "
                            f"the columns are {_list(self.names)}")
@@ -130,7 +142,7 @@ class Table:
         """
         import pandas as pd
 
-        if self.names.count(name) != 1:
+        if self._count(name) != 1 or name not in self._get:
             return None
         values = self._get[name]()
         if not pd.api.types.is_datetime64_any_dtype(getattr(values, "dtype", None)):
@@ -193,8 +205,14 @@ def _to_float(values, where: str) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ readers
-def read_table(path) -> Table:
-    """Read a CSV (``.csv``, ``.tsv``, ``.txt``, optionally ``.gz``), Parquet or ``.npz`` file."""
+def read_table(path, columns=None) -> Table:
+    """Read a CSV (``.csv``, ``.tsv``, ``.txt``, optionally ``.gz``), Parquet or ``.npz`` file.
+
+    ``columns`` (optional): the names that will be used. A CSV or Parquet file
+    then converts only those (the header still lists every name, for the
+    error messages), so a file of 10⁶ columns costs what its used columns
+    cost; names absent from the header are reported when asked for.
+    """
     path = Path(os.fspath(path))
     kind = _kind_of(path)
     if not path.exists():
@@ -208,9 +226,10 @@ def read_table(path) -> Table:
         raise DataFileError(f"{path}: cannot be read ({err.strerror or err})") from None
     if not head:
         raise DataFileError(f"{path}: the file is empty")
-    reader = {"csv": _read_csv, "parquet": _read_parquet, "npz": _read_npz}[kind]
-    table = reader(path, head)
-    return table
+    if kind == "npz":
+        return _read_npz(path, head)
+    wanted = None if columns is None else list(dict.fromkeys(str(c) for c in columns))
+    return (_read_csv if kind == "csv" else _read_parquet)(path, head, wanted)
 
 
 def read_frame(path):
@@ -279,7 +298,25 @@ def _delimiter(path: Path, head: bytes) -> str:
     return best if counts[best] > 0 else ","
 
 
-def _read_csv(path: Path, head: bytes) -> Table:
+def _csv_header(path: Path, delim: str, gz: bool) -> list:
+    """The header's names (the first record, as the csv module splits it)."""
+    opener = gzip.open if gz else open
+    try:
+        with opener(path, "rt", newline="", encoding="utf-8", errors="replace") as fh:
+            return next(csv.reader(fh, delimiter=delim), [])
+    except (OSError, csv.Error, EOFError, zlib.error):
+        return []
+
+
+def _usable(names, wanted):
+    """The wanted names that occur exactly once in ``names`` (others are reported later)."""
+    from collections import Counter
+
+    count = Counter(names)
+    return [n for n in wanted if count.get(n) == 1]
+
+
+def _read_csv(path: Path, head: bytes, wanted=None) -> Table:
     try:
         import pyarrow as pa
         import pyarrow.csv as pacsv
@@ -299,9 +336,15 @@ def _read_csv(path: Path, head: bytes) -> Table:
     _check_utf8(path, head)
     delim = _delimiter(path, head)
     block = max(1 << 20, 2 * _header_length(path, gz) + 2)
+    header = None
+    convert = pacsv.ConvertOptions()
+    if wanted is not None:
+        header = [str(n) for n in _csv_header(path, delim, gz)]
+        convert = pacsv.ConvertOptions(include_columns=_usable(header, wanted))
     try:
         table = pacsv.read_csv(path, parse_options=pacsv.ParseOptions(delimiter=delim),
-                               read_options=pacsv.ReadOptions(block_size=block))
+                               read_options=pacsv.ReadOptions(block_size=block),
+                               convert_options=convert)
     except UnicodeDecodeError as err:
         raise DataFileError(f"{path}: the header is not UTF-8 text ({err.reason} at byte "
                        f"{err.start}); save the file as UTF-8") from None
@@ -317,7 +360,7 @@ def _read_csv(path: Path, head: bytes) -> Table:
         raise DataFileError(f"{path}: cannot be read as CSV ({msg})") from None
     except (OSError, EOFError, zlib.error, pa.ArrowException) as err:
         raise DataFileError(f"{path}: cannot be read as CSV ({_first_line(err)})") from None
-    return _from_arrow(path, "csv", table)
+    return _from_arrow(path, "csv", table, header)
 
 
 _MAX_HEADER = 64 << 20
@@ -379,7 +422,7 @@ def _ragged_row(path: Path, delim: str, gz: bool):
     return None
 
 
-def _read_parquet(path: Path, head: bytes) -> Table:
+def _read_parquet(path: Path, head: bytes, wanted=None) -> Table:
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
@@ -387,21 +430,28 @@ def _read_parquet(path: Path, head: bytes) -> Table:
         raise DataFileError("reading Parquet needs pyarrow: pip install 'adaptid[cli]'") from None
     if not head.startswith(b"PAR1"):
         raise DataFileError(f"{path}: not a Parquet file (no PAR1 magic bytes)")
+    header = None
     try:
-        table = pq.read_table(path)
+        if wanted is not None:
+            header = [str(n) for n in pq.read_schema(path).names]
+            table = pq.read_table(path, columns=_usable(header, wanted))
+        else:
+            table = pq.read_table(path)
     except (OSError, pa.ArrowException, ValueError) as err:
         raise DataFileError(f"{path}: cannot be read as Parquet ({_first_line(err)})") from None
-    return _from_arrow(path, "parquet", table)
+    return _from_arrow(path, "parquet", table, header)
 
 
-def _from_arrow(path: Path, kind: str, table) -> Table:
-    names = [str(n) for n in table.column_names]
+def _from_arrow(path: Path, kind: str, table, header=None) -> Table:
+    """A Table of the columns read; ``header``: every name of the file (a selection was read)."""
+    read = [str(n) for n in table.column_names]
+    names = read if header is None else header
     if not names:
         raise DataFileError(f"{path}: no columns")
-    if table.num_rows == 0:
+    if table.num_rows == 0 and (header is None or read):
         raise DataFileError(f"{path}: no data rows (only a header with columns {_list(names)})")
     get = {}
-    for i, name in enumerate(names):
+    for i, name in enumerate(read):
         get.setdefault(name, (lambda i=i: table.column(i).to_pandas()))
     return Table(path=path, kind=kind, names=names, _get=get)
 

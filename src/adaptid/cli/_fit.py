@@ -128,7 +128,7 @@ def _run_fit_locked(data, structure, spec, *, nan, out, save_state, resume, outp
     """``run_fit`` after the checks, holding the state lock: read, fit, report, save."""
     est0, labels = _load_resume(resume) if resume is not None else (None, None)
 
-    table = read_table(data)
+    table = read_table(data, columns=structure.columns())
     output.detail(f"read {table.path} ({table.kind}): columns {', '.join(table.names[:20])}")
     problem = build_problem(table, structure, nan)
     policy = "skip" if nan == "skip" else "raise"

@@ -93,6 +93,14 @@ class Structure:
                 return kind
         return "dc-motor" if self.dc_motor else "none"
 
+    def columns(self) -> list:
+        """Every column name the options use (the reader converts only these)."""
+        names = [self.y, self.time, *(self.phi or ()), *(self.u or ())]
+        if self.dc_motor:
+            names += [self.time or "time", self.voltage or "voltage",
+                      self.current or "current", self.speed or "speed"]
+        return [n for n in dict.fromkeys(names) if n is not None]
+
     @property
     def is_model(self) -> bool:
         """An input-output or time-series model (not a plain regression, not --dc-motor)."""
