@@ -203,6 +203,20 @@ def test_state_file_midstream_continues_bit_for_bit(tmp_path):
         RecursiveIV.from_state({k: v for k, v in obj.get_state().items() if k != "S"})
 
 
+@pytest.mark.parametrize("orders", [(1, 1, 1), (0, 1, 0), (3, [1, 2], [4, 0])])
+def test_state_file_of_small_and_wide_structures(tmp_path, orders):
+    """The file container bounds the own arrays by the outer n_params: the smallest
+    structure (n = 1) and long input lags must still round-trip."""
+    y, u = _record(60, 10)
+    U = u if np.ndim(orders[1]) == 0 else np.column_stack([u, np.roll(u, 3)])
+    obj = RecursiveIV(*orders, warmup=5)
+    ref = RecursiveIV(*orders, warmup=5).run(y, U).theta
+    obj.run(y[:30], U[:30])
+    obj.save_state(tmp_path / "s.npz")
+    back = RecursiveIV.load_state(tmp_path / "s.npz")
+    np.testing.assert_array_equal(back.run(y[30:], U[30:]).theta, ref[30:])
+
+
 def _hand_case(b0):
     """na = nb = nk = 1, P0 = I, θ0 = [0, b0], u = [1, 0, 0], y = [0, 1, 0.5], no warm-up.
     Sample 0: φ = ζ = 0, nothing moves. Sample 1: φ = [0, 1], ζ = [0, 1], ε = 1 − b0,
@@ -288,3 +302,34 @@ def test_bad_input_names_the_argument_and_leaves_the_state():
         np.testing.assert_array_equal(after[key], before[key])
     np.testing.assert_array_equal(after["inner"]["state"], before["inner"]["state"])
     assert after["options"]["count"] == 10
+
+
+_INTERPRETED = r"""
+import numpy as np
+from scipy.signal import lfilter
+from adaptid.models import RecursiveIV
+rng = np.random.default_rng(9)
+u, e = rng.standard_normal(300), rng.standard_normal(300)
+y = lfilter([0, 1.0, 0.5], [1, -1.5, 0.7], u) + 0.5 * lfilter([1, 0.9], [1, -1.5, 0.7], e)
+res = RecursiveIV(2, 2, 1, forgetting=0.99, warmup=5).run((y, u))
+print(np.hstack([res.theta, res.x[:, None]]).tobytes().hex())
+"""
+
+
+def test_compiled_kernel_equals_the_interpreted_source():
+    """The kernel's Python source run by the interpreter (NUMBA_DISABLE_JIT=1, in a
+    subprocess) gives the same tracks; tolerance 1e-9 relative, because the compiled
+    kernel may contract a·b + c into fused multiply-adds (fastmath "contract")."""
+    import os
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", _INTERPRETED], capture_output=True, text=True,
+                         env={**os.environ, "NUMBA_DISABLE_JIT": "1"}, check=True, timeout=300)
+    ref = np.frombuffer(bytes.fromhex(out.stdout.strip()), dtype=float).reshape(300, 5)
+    rng = np.random.default_rng(9)
+    u, e = rng.standard_normal(300), rng.standard_normal(300)
+    y = lfilter(B, A, u) + 0.5 * lfilter(C, A, e)
+    res = RecursiveIV(2, 2, 1, forgetting=0.99, warmup=5).run((y, u))
+    np.testing.assert_allclose(np.hstack([res.theta, res.x[:, None]]), ref, rtol=1e-9,
+                               atol=1e-12)

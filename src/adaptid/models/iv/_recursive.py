@@ -385,7 +385,8 @@ class RecursiveIV:
              "forgetting": self.forgetting, "warmup": self.warmup, "dt": self.dt,
              "count": self._count, "flags": list(self._flags)}
         return {"estimator": self._kind, "format": _STATE_FORMAT,
-                "n_params": max(self.n_params, self.na, self._Lu, self._m, 2),
+                # the file container bounds each side of the own arrays by this
+                "n_params": max(self.n_params, self.na, self._Lu, self._m, self._acc.size),
                 "options": o, "inner": inner, "P": self._P.copy(), "P0": self.P0.copy(),
                 "S": self._S.copy(), "Sff": self._Sff.copy(), "sfy": self._sfy.reshape(1, -1),
                 "acc": self._acc.reshape(1, -1), "ybuf": self._ybuf.reshape(1, -1),
