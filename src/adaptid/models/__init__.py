@@ -47,7 +47,9 @@ Regularised estimation (subpackage :mod:`adaptid.models.regularised`):
 marginal likelihood), :func:`arx_regul` (regularised ARX),
 :func:`kernel_matrix`. Instrumental variables (subpackage
 :mod:`adaptid.models.iv`): :func:`iv4` (Ljung's four-stage method),
-:func:`ivx` (given instruments). All return :class:`ARX` objects.
+:func:`ivx` (given instruments), :class:`RecursiveIV` (recursive, with
+instruments from an auxiliary model; :class:`RecursiveIVResult`). All
+return (or give, ``to_model()``) :class:`ARX` objects.
 
 Frequency domain (subpackage :mod:`adaptid.models.frequency`):
 :class:`FrequencyResponse` (Bode with confidence bands; returned by every
@@ -86,7 +88,7 @@ from ._table import table_regressors
 from .statespace import StateSpaceModel, era, n4sid, okid
 from .nonlinear import NARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
-from .iv import iv4, ivx
+from .iv import RecursiveIV, RecursiveIVResult, iv4, ivx
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
                         etfe, spa, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
@@ -145,6 +147,8 @@ __all__ = [
     "RecursiveARX",
     "RecursiveAR",
     "StreamResult",
+    "RecursiveIV",
+    "RecursiveIVResult",
 ]
 
 
