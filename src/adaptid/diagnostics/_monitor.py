@@ -2,10 +2,13 @@ r"""Online monitoring of a regression against a stable history (R strucchange's 
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.optimize import brentq
 from scipy.stats import norm
 
+from .._exceptions import AdaptidWarning
 from .._kernels.layers._breakpoints import moving_estimates
 from .._validation import as_float_array, check_choice, check_scalar, param_error
 from . import _sc_tables as _T
@@ -13,6 +16,9 @@ from ._format import format_num, frame
 from ._sc_common import lazy_pyplot, ols, regression_data, root_from_factor
 
 __all__ = ["Monitor"]
+
+#: A history whose residual standard deviation is at most this times rms(y) fits exactly.
+_EXACT_FIT = 1e-12
 
 
 def _csw_critical_value(alpha: float) -> float:
@@ -43,7 +49,7 @@ class Monitor:
     horizon : {2, 4, 6, 8, 10}, optional
         For ``"me"``: the monitoring ends at ``horizon × N_h`` samples
         (strucchange's ``period``; its critical values are tabulated for
-        these). The ``"ols-cusum"`` boundary holds for an unbounded
+        these); later samples are not monitored (one ``AdaptidWarning``). The ``"ols-cusum"`` boundary holds for an unbounded
         horizon and ignores it. Default 10.
     h : {0.25, 0.5, 1.0}, optional
         Window of ``"me"`` as a fraction of N_h. Default 0.5.
@@ -57,6 +63,13 @@ class Monitor:
     n_seen : int
         Samples seen so far (history included).
     critical_value : float
+
+    Raises
+    ------
+    ValueError
+        A history of at most n + 1 rows, or one the regressors fit exactly
+        (σ̂ ≤ 1e-12·rms(y): the statistics are scaled by 1/σ̂, and rounding
+        errors alone would cross or never reach the boundary).
 
     Notes
     -----
@@ -112,6 +125,12 @@ class Monitor:
         self.n_hist = N
         self.theta, e = ols(X, y)
         self.sigma = float(np.sqrt(e @ e / (N - n)))
+        scale = float(np.sqrt(np.mean(y * y)))
+        if not self.sigma > _EXACT_FIT * scale:  # also catches σ̂ = 0 and NaN
+            raise param_error("y_hist", "a history that the regressors do not fit exactly "
+                              f"(σ̂ > {_EXACT_FIT:g}·rms(y): the statistics are scaled by 1/σ̂, "
+                              "so an exact fit alarms on rounding errors)",
+                              f"<σ̂ = {self.sigma:.3g}, rms(y) = {scale:.3g}>")
         self.n_seen = N
         self.alarm = None
         self._chunks: list[np.ndarray] = []
@@ -137,6 +156,7 @@ class Monitor:
             self._K = int(np.floor(hs[0] * N))
             if self._K < n:
                 raise param_error("h", f"a window of at least n = {n} samples", h)
+            self.horizon = int(horizon)
             self._Xbuf = X[N - self._K + 1:].copy()
             self._ybuf = y[N - self._K + 1:].copy()
             self._max = 0.0
@@ -164,6 +184,8 @@ class Monitor:
             raise param_error("X", f"of shape (m, {self.n_params})", f"<shape {X.shape}>")
         m = X.shape[0]
         y = as_float_array(y, "y", shape=(m,))
+        m = self._within_horizon(m)
+        X, y = X[:m], y[:m]
         if m == 0:
             return self.alarm
         k = self.n_seen + 1 + np.arange(m)
@@ -192,6 +214,18 @@ class Monitor:
         self._bounds.append(bound)
         self.n_seen += m
         return self.alarm
+
+    def _within_horizon(self, m) -> int:
+        """How many of m new samples the "me" test's critical values cover (warns for the rest)."""
+        if self.kind != "me":
+            return m
+        left = max(self.horizon * self.n_hist - self.n_seen, 0)
+        if m > left:
+            warnings.warn(f"Monitor(kind='me'): the monitoring ended at horizon × N_h = "
+                          f"{self.horizon * self.n_hist} samples (its critical values hold up to "
+                          f"there); {m - left} later sample(s) not monitored. Start a new Monitor "
+                          "or use a larger horizon.", AdaptidWarning, stacklevel=3)
+        return min(m, left)
 
     @property
     def process(self) -> np.ndarray:
