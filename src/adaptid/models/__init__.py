@@ -43,11 +43,15 @@ State-space models (subpackage :mod:`adaptid.models.statespace`):
 :class:`StateSpaceModel`.
 
 Regularised estimation (subpackage :mod:`adaptid.models.regularised`):
-:func:`impulseest` (FIR with TC, DC or SS kernels, hyperparameters by
+:func:`impulseest` (FIR with TC, DC, SS, SE, HF or DI kernels, hyperparameters by
 marginal likelihood), :func:`arx_regul` (regularised ARX),
 :func:`kernel_matrix`. Instrumental variables (subpackage
 :mod:`adaptid.models.iv`): :func:`iv4` (Ljung's four-stage method),
 :func:`ivx` (given instruments). All return :class:`ARX` objects.
+
+Closed-loop identification (subpackage :mod:`adaptid.models.closedloop`):
+:func:`checkfeedback` (a test for feedback, :class:`FeedbackResult`),
+:func:`indirect` (known controller), :func:`two_stage` (projection method).
 
 Frequency domain (subpackage :mod:`adaptid.models.frequency`):
 :class:`FrequencyResponse` (Bode with confidence bands; returned by every
@@ -87,6 +91,7 @@ from .statespace import StateSpaceModel, era, n4sid, okid
 from .nonlinear import NARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import iv4, ivx
+from .closedloop import FeedbackResult, checkfeedback, indirect, two_stage
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
                         etfe, spa, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
@@ -145,6 +150,10 @@ __all__ = [
     "RecursiveARX",
     "RecursiveAR",
     "StreamResult",
+    "checkfeedback",
+    "FeedbackResult",
+    "indirect",
+    "two_stage",
 ]
 
 
