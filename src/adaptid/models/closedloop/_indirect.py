@@ -146,6 +146,47 @@ def _indirect_oe(model, y, r, X, Y, s, noise_order):
     return model
 
 
+def _newey_west(Z, L):
+    """Σ_{|h|≤L} (1 − |h|/(L+1)) Σ_k z_k z_{k+h}ᵀ (Bartlett weights; Newey and West 1987)."""
+    S = Z.T @ Z
+    for h in range(1, min(L, Z.shape[0] - 1) + 1):
+        G = Z[h:].T @ Z[:-h]
+        S += (1.0 - h / (L + 1.0)) * (G + G.T)
+    return S
+
+
+def _two_stage_cov(m, stage1, r, Phi_fix, reg, bandwidth):
+    r"""Covariance of the two-stage estimate with the stage-1 error included.
+
+    Linearising the stage-2 normal equations in θ and in the FIR
+    coefficients s, :math:`\hat	heta - 	heta pprox \sum_k z_k` with
+    :math:`z_k = A\psi_karepsilon_k - B\phi_k
+u_k`,
+    :math:`A = (\Psi^T\Psi)^{-1}`,
+    :math:`B = A\Psi^TG(\hat	heta)\Phi_r(\Phi_r^T\Phi_r)^{-1}` (ν, φ the
+    stage-1 residuals and regressors, :math:`G\Phi_r` the stage-1 regressors
+    filtered by the plant); both sums are of coloured, mutually correlated
+    terms, so the covariance of Σz is estimated with Newey–West weights.
+    """
+    eps, Psi = m._errors(m.theta, Phi_fix, reg.y)
+    n = stage1.theta.size
+    Phir = np.column_stack([np.r_[np.zeros(j), r[: r.size - j]] for j in range(n)])
+    A, Bs, _, Fs = m._polys()
+    GPhi = signal.lfilter(Bs[0], Fs[0], Phir, axis=0)[reg.index]
+    R = linalg.qr(Psi, mode="r")[0][: Psi.shape[1]]
+    R1 = linalg.qr(Phir[stage1.index], mode="r")[0][:n]
+
+    def inv_gram(Rf, M):          # (RᵀR)⁻¹ M by two triangular solves
+        return linalg.solve_triangular(Rf, linalg.solve_triangular(Rf, M, trans="T"))
+
+    Bm = inv_gram(R1, inv_gram(R, Psi.T @ GPhi).T).T
+    Z = np.zeros((r.size, Psi.shape[1]))
+    Z[reg.index] += inv_gram(R, Psi.T).T * eps[:, None]
+    Z[stage1.index] -= (Phir[stage1.index] * np.asarray(stage1.residuals)[:, None]) @ Bm.T
+    cov = _newey_west(Z, bandwidth)
+    return 0.5 * (cov + cov.T)
+
+
 def _setup(model, y, u, rec):
     """Fix the model's inputs and names as its ``fit`` would on (y, u)."""
     model._data(rec if rec is not None else y, None if rec is not None else u, fitting=True)
@@ -293,7 +334,7 @@ def _stage2(y, u_hat, nb, nf, nk, n_fir):
     return m
 
 
-def two_stage(data, r, *, nb, nf, nk=1, n_fir=30, noise_order=10):
+def two_stage(data, r, *, nb, nf, nk=1, n_fir=30, bandwidth=30):
     r"""The two-stage (projection) method: project u on r, then fit the plant as output error.
 
     Stage 1 estimates the map from the reference to the input, here a
@@ -329,17 +370,24 @@ def two_stage(data, r, *, nb, nf, nk=1, n_fir=30, noise_order=10):
     n_fir : int
         Length n of the stage-1 FIR model (default 30), ``>= 1``; it must
         cover the sensitivity function's impulse response.
-    noise_order : int
-        Order of the AR model of the stage-2 output error used for the
-        covariance (default 10).
+    bandwidth : int
+        Number of lags L of the Newey–West estimate of the covariance
+        (default 30), ``>= 0``; it should cover the correlation time of
+        the noise.
 
     Returns
     -------
     OE
-        The stage-2 model with ``theta``, ``cov`` (the sandwich covariance
-        of :func:`indirect`, conditional on û: the stage-1 error, of order
-        n/N, is not included), ``stderr``, ``method = "two_stage"``,
-        ``u_hat`` (û) and ``stage1`` (the FIR model, an :class:`ARX`).
+        The stage-2 model with ``theta``, ``cov``, ``stderr``, ``method =
+        "two_stage"``, ``u_hat`` (û) and ``stage1`` (the FIR model, an
+        :class:`ARX`). ``cov`` includes the stage-1 error: with the
+        stage-2 normal equations linearised in θ and in the FIR
+        coefficients, :math:`\hat\theta - \theta \approx \sum_k z_k`,
+        :math:`z_k = A\psi_k\varepsilon_k - B\phi_k\nu_k` (ψ the
+        output-error gradient, ε its errors, φ and ν the stage-1 regressors
+        and residuals, A and B the sensitivity matrices), and
+        :math:`\operatorname{cov} = \sum_{|h|\le L}(1 - \tfrac{|h|}{L+1})
+        \sum_k z_kz_{k+h}^T` (Newey and West 1987).
 
     References
     ----------
@@ -348,6 +396,9 @@ def two_stage(data, r, *, nb, nf, nk=1, n_fir=30, noise_order=10):
        *Automatica* 29(6), 1993, :doi:`10.1016/0005-1098(93)90050-W`.
     .. [2] U. Forssell and L. Ljung, "Closed-loop identification revisited",
        *Automatica* 35(7), 1999, :doi:`10.1016/S0005-1098(99)00022-9`.
+    .. [3] W. K. Newey and K. D. West, "A simple, positive semi-definite,
+       heteroskedasticity and autocorrelation consistent covariance
+       matrix", *Econometrica* 55(3), 1987, :doi:`10.2307/1913610`.
 
     Examples
     --------
@@ -370,8 +421,8 @@ def two_stage(data, r, *, nb, nf, nk=1, n_fir=30, noise_order=10):
     nf = check_int(nf, "nf", low=0)
     nk = check_int(nk, "nk", low=0)
     n_fir = check_int(n_fir, "n_fir", low=1)
-    noise_order = check_int(noise_order, "noise_order", low=1)
-    if y.size < 4 * (n_fir + nb + nf + nk) + 2 * noise_order + 10:
+    bandwidth = check_int(bandwidth, "bandwidth", low=0)
+    if y.size < 4 * (n_fir + nb + nf + nk) + 10:
         raise param_error("data", f"a record longer than {4 * (n_fir + nb + nf + nk)} samples "
                           f"(4 times the stage-1 and stage-2 parameters)", f"<{y.size} samples>")
     stage1 = ARX(0, n_fir, 0).fit(u, r)
@@ -380,8 +431,7 @@ def two_stage(data, r, *, nb, nf, nk=1, n_fir=30, noise_order=10):
     if rec is not None:
         m.y_name, m.u_names, m.dt = rec.y_names[0], rec.u_names, rec.dt
     reg, Phi_fix = m._fixed_regression(y, u_hat.reshape(-1, 1), True)
-    eps, Psi = m._errors(m.theta, Phi_fix, reg.y)
-    m.cov = _sandwich_cov(Psi, eps, noise_order)[0]
+    m.cov = _two_stage_cov(m, stage1, r, Phi_fix, reg, bandwidth)
     m.method = "two_stage"
     m.u_hat = u_hat
     m.stage1 = stage1
