@@ -23,7 +23,7 @@ def _fir_rows(y, u, n, nk):
 
 
 def _numpy_kernel(kernel, n, h):
-    """The kernels written out entry by entry (Chen and Ljung's rfir loops)."""
+    """The kernels written out entry by entry (as the loops of the rfir MATLAB code)."""
     P = np.zeros((n, n))
     for i in range(1, n + 1):
         for j in range(1, n + 1):

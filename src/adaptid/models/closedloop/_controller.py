@@ -1,6 +1,6 @@
 r"""The known controller of a loop, as polynomials in the backward shift.
 
-Convention (Ljung 1999, eq. 13.2): negative feedback
+Convention (Ljung 1999, sec. 13.4): negative feedback
 
 .. math::
 

@@ -151,7 +151,7 @@ def checkfeedback(data, *, max_lag=None, alpha=0.05, order=10, nk=1):
         \zeta = N\,r^T T^{-1} r \sim \chi^2_M,\qquad \tau = 1 \dots M,
 
     with :math:`T_{ij} = \hat\rho_u(i-j)` the M × M Toeplitz matrix of
-    the input's sample autocorrelation (Ljung 1999, eq. 16.63 with white
+    the input's sample autocorrelation (Ljung 1999, sec. 16.6, with white
     ε: the correlations at different lags are correlated through the
     colour of u, which T accounts for). Without feedback u is independent
     of the noise, so the residuals, which the high-order ARX makes white,

@@ -1,6 +1,6 @@
 r"""Closed-loop identification with a known controller or a measured reference.
 
-The loop (Ljung 1999, eqs. 13.1–13.2):
+The loop (Ljung 1999, sec. 13.4):
 
 .. math::
 
@@ -90,7 +90,7 @@ def _closed_loop_oe(theta, nb, nf, nk, X, Y, r):
 
 
 def _sandwich_cov(Psi, eps, noise_order):
-    r"""Covariance of an output-error fit whose errors ε are coloured (Ljung 1999, eq. 9.42).
+    r"""Covariance of an output-error fit whose errors ε are coloured (Ljung 1999, ch. 9).
 
     ε ≈ e/L(q), L an AR(``noise_order``) polynomial fitted by least squares,
     λ its innovation variance; :math:`\tilde\psi_s = \sum_j h_j\psi_{s+j}`
@@ -210,7 +210,7 @@ def indirect(data, controller, *, r=None, na, nb, nk=1, model="oe", noise_order=
         \hat\theta = \arg\min_\theta\sum_k\big(y_k - G_c(q,\theta)r_k\big)^2,
 
     in the *open-loop* parameters θ = [b₀ … b_{nb−1}, f₁ … f_na] (Ljung
-    1999, sec. 13.5, eq. 13.44: the closed loop parametrised by the plant,
+    1999, sec. 13.5: the closed loop parametrised by the plant,
     so that solving for G is part of the fit and no cancellation between
     the estimated closed loop and the controller is needed). r is
     independent of the noise, so :math:`\hat\theta` is consistent whatever
@@ -262,8 +262,8 @@ def indirect(data, controller, *, r=None, na, nb, nk=1, model="oe", noise_order=
         "indirect"``, ``controller`` (X, Y) and ``reference`` r. For
         ``"oe"`` the covariance is the sandwich
         :math:`\lambda(\Psi^T\Psi)^{-1}\tilde\Psi^T\tilde\Psi(\Psi^T\Psi)^{-1}`
-        of an output-error fit with coloured errors (Ljung 1999, eq.
-        9.42), Ψ the Jacobian above and :math:`\tilde\Psi` Ψ filtered
+        of an output-error fit with coloured errors (Ljung 1999, ch. 9),
+        Ψ the Jacobian above and :math:`\tilde\Psi` Ψ filtered
         backwards by the AR noise model; for ``"arx"`` the least-squares
         covariance.
 

@@ -58,15 +58,16 @@ def kernel_matrix(kernel, n, hyperparameters):
     warping :math:`s = \lambda^i`, :math:`\min(\lambda^i,\lambda^j) =
     \lambda^{\max(i,j)}` (Chen, Ohlsson and Ljung 2012, eq. 17 and
     Pillonetto et al. 2014, sec. 9). The other three are those of MATLAB's
-    ``arxRegulOptions`` (its ``RegularizationKernel`` list) and of Chen and
-    Ljung's reference implementation ``rfir``: SE, the squared-exponential
-    (Gaussian) kernel of width β, a smoothness prior with no decay (Chen,
-    Ohlsson and Ljung 2012, sec. 4; Rasmussen and Williams 2006, eq. 2.16);
+    ``arxRegulOptions`` (its ``RegularizationKernel`` list), with the
+    formulas of the public ``rfir`` MATLAB code for regularised FIR
+    estimation: SE, the squared-exponential
+    (Gaussian) kernel of width β, a smoothness prior with no decay
+    (Rasmussen and Williams 2006, sec. 4.2);
     HF, the TC kernel with alternating signs, a prior for impulse responses
     that oscillate at the Nyquist frequency (poles near −1): it is
     :math:`S\,P_{TC}\,S` with :math:`S = \operatorname{diag}((-1)^i)`; DI,
     the diagonal kernel, independent coefficients with exponentially
-    decaying variance (Chen, Ohlsson and Ljung 2012, eq. 14).
+    decaying variance (Chen, Ohlsson and Ljung 2012).
 
     References
     ----------
@@ -77,6 +78,8 @@ def kernel_matrix(kernel, n, hyperparameters):
        "Kernel methods in system identification, machine learning and
        function estimation: a survey", *Automatica* 50(3), 2014,
        :doi:`10.1016/j.automatica.2014.01.001`.
+    .. [3] C. E. Rasmussen and C. K. I. Williams, *Gaussian Processes for
+       Machine Learning*, MIT Press, 2006.
 
     Examples
     --------
