@@ -76,6 +76,19 @@ def test_power_in_closed_loop():
     assert clean <= 4
 
 
+def test_a_direct_term_needs_nk_0():
+    # open loop, plant with a direct term b0 u(k) and a coloured input: nk = 1 leaves
+    # b0 u(k) in the residual, which correlates with u(k + τ), a false alarm; nk = 0 does not
+    wrong, right = 0, 0
+    for i in range(20):
+        rng = np.random.default_rng(300 + i)
+        u = lfilter([1], [1, -0.9], rng.standard_normal(1500))
+        y = lfilter([1.0, 0.5], [1, -0.8], u) + 0.5 * rng.standard_normal(1500)
+        wrong += checkfeedback((y, u)).feedback
+        right += checkfeedback((y, u), nk=0).feedback
+    assert wrong >= 18 and right <= 3
+
+
 def test_result_convention():
     import matplotlib
 

@@ -194,8 +194,8 @@ def checkfeedback(data, *, max_lag=None, alpha=0.05, order=10, nk=1):
     model's residual approaches the innovation :math:`e_k` as its order
     grows, in open and in closed loop alike (the ARX fit is consistent
     under feedback when its order is high enough; Ljung 1999, sec. 13.4).
-    MATLAB's ``feedback`` reports a probability of feedback
-    :math:`100(1 - p)` % in the same spirit.
+    MATLAB's ``feedback`` reports the same kind of test as a probability
+    of feedback in percent.
 
     References
     ----------
