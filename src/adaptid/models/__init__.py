@@ -43,13 +43,17 @@ State-space models (subpackage :mod:`adaptid.models.statespace`):
 :class:`StateSpaceModel`.
 
 Regularised estimation (subpackage :mod:`adaptid.models.regularised`):
-:func:`impulseest` (FIR with TC, DC or SS kernels, hyperparameters by
+:func:`impulseest` (FIR with TC, DC, SS, SE, HF or DI kernels, hyperparameters by
 marginal likelihood), :func:`arx_regul` (regularised ARX),
 :func:`kernel_matrix`. Instrumental variables (subpackage
 :mod:`adaptid.models.iv`): :func:`iv4` (Ljung's four-stage method),
 :func:`ivx` (given instruments), :class:`RecursiveIV` (recursive, with
 instruments from an auxiliary model; :class:`RecursiveIVResult`). All
 return (or give, ``to_model()``) :class:`ARX` objects.
+
+Closed-loop identification (subpackage :mod:`adaptid.models.closedloop`):
+:func:`checkfeedback` (a test for feedback, :class:`FeedbackResult`),
+:func:`indirect` (known controller), :func:`two_stage` (projection method).
 
 Frequency domain (subpackage :mod:`adaptid.models.frequency`):
 :class:`FrequencyResponse` (Bode with confidence bands; returned by every
@@ -89,6 +93,7 @@ from .statespace import StateSpaceModel, era, n4sid, okid
 from .nonlinear import NARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import RecursiveIV, RecursiveIVResult, iv4, ivx
+from .closedloop import FeedbackResult, checkfeedback, indirect, two_stage
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
                         etfe, spa, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
@@ -149,6 +154,10 @@ __all__ = [
     "StreamResult",
     "RecursiveIV",
     "RecursiveIVResult",
+    "checkfeedback",
+    "FeedbackResult",
+    "indirect",
+    "two_stage",
 ]
 
 

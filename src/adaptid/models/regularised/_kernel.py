@@ -11,13 +11,14 @@ from .._arx import ARX
 __all__ = ["impulseest", "arx_regul", "kernel_matrix"]
 
 #: hyperparameter names of each kernel, in the order of ``hyperparameters=``
-_HYPER = {"TC": ("c", "lam"), "DC": ("c", "lam", "rho"), "SS": ("c", "lam")}
+_HYPER = {"TC": ("c", "lam"), "DC": ("c", "lam", "rho"), "SS": ("c", "lam"),
+          "SE": ("c", "beta"), "HF": ("c", "lam"), "DI": ("c", "lam")}
 
 
 def _check_kernel(kernel):
     k = str(kernel).upper() if isinstance(kernel, str) else kernel
     if k not in _HYPER:
-        raise param_error("kernel", "one of 'TC', 'DC', 'SS'", kernel)
+        raise param_error("kernel", "one of 'TC', 'DC', 'SS', 'SE', 'HF', 'DI'", kernel)
     return k
 
 
@@ -29,15 +30,22 @@ def kernel_matrix(kernel, n, hyperparameters):
         \text{TC:}\ P_{ij} = c\,\lambda^{\max(i,j)},\qquad
         \text{DC:}\ P_{ij} = c\,\lambda^{(i+j)/2}\rho^{|i-j|},\qquad
         \text{SS:}\ P_{ij} = c\Big(\frac{\lambda^{i+j+\max(i,j)}}{2}
-                                   - \frac{\lambda^{3\max(i,j)}}{6}\Big).
+                                   - \frac{\lambda^{3\max(i,j)}}{6}\Big),
+
+    .. math::
+
+        \text{SE:}\ P_{ij} = c\,e^{-(i-j)^2/(2\beta^2)},\qquad
+        \text{HF:}\ P_{ij} = c\,(-1)^{i+j}\lambda^{\max(i,j)},\qquad
+        \text{DI:}\ P_{ij} = c\,\lambda^i\,\delta_{ij}.
 
     Parameters
     ----------
-    kernel : {"TC", "DC", "SS"}
+    kernel : {"TC", "DC", "SS", "SE", "HF", "DI"}
     n : int
         Number of coefficients, ``>= 1``.
     hyperparameters : sequence of float
-        TC and SS: (c, λ); DC: (c, λ, ρ); c > 0, λ ∈ (0, 1), ρ ∈ (−1, 1).
+        TC, SS, HF and DI: (c, λ); DC: (c, λ, ρ); SE: (c, β); c > 0,
+        λ ∈ (0, 1), ρ ∈ (−1, 1), β > 0.
 
     Returns
     -------
@@ -49,7 +57,17 @@ def kernel_matrix(kernel, n, hyperparameters):
     :math:`K(s,t) = st\min(s,t)/2 - \min(s,t)^3/6` with the exponential time
     warping :math:`s = \lambda^i`, :math:`\min(\lambda^i,\lambda^j) =
     \lambda^{\max(i,j)}` (Chen, Ohlsson and Ljung 2012, eq. 17 and
-    Pillonetto et al. 2014, sec. 9).
+    Pillonetto et al. 2014, sec. 9). The other three are those of MATLAB's
+    ``arxRegulOptions`` (its ``RegularizationKernel`` list), with the
+    formulas of the public ``rfir`` MATLAB code for regularised FIR
+    estimation: SE, the squared-exponential
+    (Gaussian) kernel of width β, a smoothness prior with no decay
+    (Rasmussen and Williams 2006, sec. 4.2);
+    HF, the TC kernel with alternating signs, a prior for impulse responses
+    that oscillate at the Nyquist frequency (poles near −1): it is
+    :math:`S\,P_{TC}\,S` with :math:`S = \operatorname{diag}((-1)^i)`; DI,
+    the diagonal kernel, independent coefficients with exponentially
+    decaying variance (Chen, Ohlsson and Ljung 2012).
 
     References
     ----------
@@ -60,6 +78,8 @@ def kernel_matrix(kernel, n, hyperparameters):
        "Kernel methods in system identification, machine learning and
        function estimation: a survey", *Automatica* 50(3), 2014,
        :doi:`10.1016/j.automatica.2014.01.001`.
+    .. [3] C. E. Rasmussen and C. K. I. Williams, *Gaussian Processes for
+       Machine Learning*, MIT Press, 2006.
 
     Examples
     --------
@@ -78,12 +98,20 @@ def kernel_matrix(kernel, n, hyperparameters):
     c, lam = h[0], h[1]
     if not c > 0:
         raise param_error("hyperparameters", "with c > 0", hyperparameters)
+    i = np.arange(1, n + 1, dtype=np.float64)
+    if kernel == "SE":
+        if not lam > 0:
+            raise param_error("hyperparameters", "with beta > 0", hyperparameters)
+        return c * np.exp(-np.subtract.outer(i, i) ** 2 / (2.0 * lam ** 2))
     if not 0 < lam < 1:
         raise param_error("hyperparameters", "with lam in (0, 1)", hyperparameters)
-    i = np.arange(1, n + 1, dtype=np.float64)
     mx = np.maximum.outer(i, i)
     if kernel == "TC":
         return c * lam ** mx
+    if kernel == "HF":
+        return c * (-1.0) ** np.add.outer(i, i) * lam ** mx
+    if kernel == "DI":
+        return np.diag(c * lam ** i)
     if kernel == "DC":
         rho = h[2]
         if not -1 < rho < 1:
@@ -165,14 +193,15 @@ def _from_x(kernel, x, nblocks):
 
 
 def _tune(gram, kernel, sizes, sigma2, theta_ls):
-    """Maximise log p(y) over (log c, log λ[, ρ]) per block, from the best point of a grid."""
+    """Maximise log p(y) over (log c, log λ (log β)[, ρ]) per block, from the best point of a grid."""
     from scipy.optimize import minimize
 
     nb = len(sizes)
-    # a starting grid over λ (shared by the blocks), c from the LS estimate's size
+    # a starting grid over λ or β (shared by the blocks), c from the LS estimate's size
     c0 = max(float(np.mean(theta_ls ** 2)), 1e-12) * 10
     best = None
-    for lam in (0.3, 0.6, 0.8, 0.9, 0.95, 0.98):
+    grid = (0.5, 1.0, 2.0, 4.0, 8.0) if kernel == "SE" else (0.3, 0.6, 0.8, 0.9, 0.95, 0.98)
+    for lam in grid:
         base = [c0, lam] + ([0.5] if kernel == "DC" else [])
         for cs in (0.1, 1.0, 10.0):
             hb = list(base)
@@ -189,6 +218,8 @@ def _tune(gram, kernel, sizes, sigma2, theta_ls):
                           "evaluated (every starting kernel failed; give hyperparameters=)",
                           "<no finite value>")
     lo_lam, hi_lam = np.log(1e-6), np.log(1 - 1e-9)
+    if kernel == "SE":      # the width β from a tenth of a lag to ten record lengths
+        lo_lam, hi_lam = np.log(0.1), np.log(10.0 * max(sizes))
     bounds = []
     for _ in range(nb):
         bounds += [(np.log(c0) - 40, np.log(c0) + 40), (lo_lam, hi_lam)]
@@ -273,11 +304,13 @@ def impulseest(data, n, *, u=None, kernel="TC", nk=0, hyperparameters=None,
         Number of FIR taps, ``>= 1``.
     u : array_like, shape (N,), optional
         The input when ``data`` is the output.
-    kernel : {"TC", "DC", "SS"}
+    kernel : {"TC", "DC", "SS", "SE", "HF", "DI"}
+        The prior covariance of :func:`kernel_matrix`.
     nk : int
         Delay of the first tap, ``>= 0`` (default 0: a direct term).
     hyperparameters : sequence of float, optional
-        Fixed (c, λ) for TC and SS, (c, λ, ρ) for DC; default: estimated.
+        Fixed (c, λ) for TC, SS, HF and DI, (c, λ, ρ) for DC, (c, β) for
+        SE; default: estimated.
     noise_variance : float, optional
         Fixed σ²; default the residual variance of the plain least-squares
         FIR of the same length (as MATLAB does, which uses a least-squares
@@ -362,7 +395,7 @@ def arx_regul(data, na, nb, nk=1, *, u=None, kernel="TC", hyperparameters=None,
         Input delay per input.
     u : array_like, optional
         The input when ``data`` is the output.
-    kernel : {"TC", "DC", "SS"}
+    kernel : {"TC", "DC", "SS", "SE", "HF", "DI"}
     hyperparameters : sequence of float, optional
         The blocks' hyperparameters concatenated, A first (omitted when
         na = 0), then each input's B: e.g. TC ``(c_a, λ_a, c_b, λ_b)``.
