@@ -6,6 +6,7 @@ import numpy as np
 
 from .. import _config
 from .._validation import as_float_array, check_int, check_scalar, param_error, symmetrised
+from . import _kalmansmooth
 from ._engine import RecursiveEstimator
 from ._spec import AlgorithmSpec
 
@@ -103,3 +104,7 @@ class KalmanRLS(RecursiveEstimator):
         if self._diffuse:
             opt.append(_config.DIFFUSE_KALMAN_TOL)
         return np.array(opt), np.ascontiguousarray(self.process_cov)
+
+    # smoothing and the likelihood, from the prior (._kalmansmooth)
+    smooth = _kalmansmooth.smooth
+    loglike = _kalmansmooth.loglike
