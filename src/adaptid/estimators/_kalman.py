@@ -6,7 +6,7 @@ import numpy as np
 
 from .. import _config
 from .._validation import as_float_array, check_int, check_scalar, param_error, symmetrised
-from . import _kalmansmooth
+from . import _kalmanfit, _kalmansmooth
 from ._engine import RecursiveEstimator
 from ._spec import AlgorithmSpec
 
@@ -105,6 +105,7 @@ class KalmanRLS(RecursiveEstimator):
             opt.append(_config.DIFFUSE_KALMAN_TOL)
         return np.array(opt), np.ascontiguousarray(self.process_cov)
 
-    # smoothing and the likelihood, from the prior (._kalmansmooth)
+    # smoothing and the likelihood, from the prior (._kalmansmooth, ._kalmanfit)
     smooth = _kalmansmooth.smooth
     loglike = _kalmansmooth.loglike
+    fit_variances = _kalmanfit.fit_variances
