@@ -64,6 +64,12 @@ class KalmanRLS(RecursiveEstimator):
         continues from :math:`P_*`. The filtered θ equals statsmodels'
         state-space filter with ``initialization="diffuse"``.
 
+    :meth:`smooth` gives the smoothed track θ(k|N) with its covariance
+    (Rauch–Tung–Striebel), :meth:`loglike` the Gaussian log-likelihood of the
+    data under this model and :meth:`fit_variances` the maximum-likelihood
+    R₁ and R₂; all three run from the prior and leave the state unchanged
+    (``docs/models/smoothing.md``).
+
     References
     ----------
     .. [1] J. Durbin, S. J. Koopman, *Time Series Analysis by State Space

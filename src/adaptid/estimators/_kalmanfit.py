@@ -121,7 +121,8 @@ def fit_variances(self, Phi, y, per_parameter=False, *, weights=None, method="L-
     not scale with R₂) both are searched.
 
     The optimiser's estimate is refined by Newton steps on differenced
-    derivatives (kept only when they raise the likelihood). Standard errors: the observed information :math:`-\nabla^2\log L` by
+    derivatives (kept only when they raise the likelihood). Standard errors:
+    the observed information :math:`-\nabla^2\log L` by
     central differences in :math:`x = \log(q, R_2)` at the estimate, its
     inverse :math:`C_x`, and the delta method
     :math:`C = D C_x D`, :math:`D = \operatorname{diag}(q, R_2)`
@@ -246,12 +247,11 @@ class VarianceFit:
     def estimator(self):
         """A :class:`~adaptid.KalmanRLS` with these variances and the prior (θ₀, P₀
         or diffuse), NaN policy and outputs of the estimator that was fitted."""
-        from ._kalman import KalmanRLS
         src = self._prior
         q = self.process_var
         R1 = np.diag(q) if np.ndim(q) else q
         theta0 = None if src.diffuse else src.theta0[:, 0]
-        return KalmanRLS(src.n_params, process_cov=R1, noise_var=self.noise_var, theta0=theta0,
+        return type(src)(src.n_params, process_cov=R1, noise_var=self.noise_var, theta0=theta0,
                          P0=src.P0, nan_policy=src.nan_policy)
 
     def summary(self, *, alpha=0.05):

@@ -39,7 +39,7 @@ def prepared(self, Phi, y, weights, what):
             np.array(Y[:, 0], dtype=np.float64), np.array(w, dtype=np.float64))
 
 
-def prior(self, n=None):
+def prior(self):
     """(a, P, P∞, diffuse): the state before the first sample, as new arrays."""
     n = self.n_params
     if self._diffuse:
@@ -288,7 +288,7 @@ class KalmanSmoothResult:
         stats = {"N": len(self), "missing": missing, "log-likelihood": float(self.loglike)}
         if self.identified is not None:
             stats["diffuse samples"] = int(np.count_nonzero(~self.identified))
-        return Summary(title="Kalman smoother (Rauch-Tung-Striebel)", names=tuple(self._names(names)),
-                       params=rows, stats=stats, alpha=alpha,
+        return Summary(title="Kalman smoother (Rauch-Tung-Striebel)",
+                       names=tuple(self._names(names)), params=rows, stats=stats, alpha=alpha,
                        notes=("Estimates: θ(N|N); the track is in theta (smoothed) and "
                               "theta_filtered.",))

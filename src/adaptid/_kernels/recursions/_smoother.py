@@ -264,7 +264,8 @@ def _ordinary_back(phi, v, f, M, r0, N0, N1, kd, L0, K, T1, T2):
 
 @njit(**NJIT)
 def _smoothed(k, A, PP, PI, r0, r1, N0, N1, N2, As, Ps, T1, T2):
-    """θ(k|N) = a + P r0 + P∞ r1,  P(k|N) = P − P N0 P − P∞N1P − P N1ᵀP∞ − P∞N2P∞."""
+    """θ(k|N) = a + P r0 + P∞ r1,
+    P(k|N) = P − P N0 P − P∞N1P − P N1ᵀP∞ − P∞N2P∞ (the P∞ terms while diffuse)."""
     n = r0.shape[0]
     P = PP[k]
     diffuse = False
