@@ -258,6 +258,22 @@ def test_fit_variances_recovers_the_drift(rng):
     np.testing.assert_allclose(est.process_cov, fit.process_var * np.eye(2))
 
 
+def test_a_variance_on_its_bound_has_no_standard_error(rng):
+    # the first parameter is constant: its variance goes to zero, where the
+    # information in log q vanishes; the others keep theirs
+    from adaptid import AdaptidWarning
+    Nl = 1500
+    Phi = np.column_stack([np.ones(Nl), rng.standard_normal(Nl)])
+    theta = np.column_stack([np.full(Nl, 0.5),
+                             2.0 + np.cumsum(0.01 * rng.standard_normal(Nl))])
+    y = np.einsum("ki,ki->k", Phi, theta) + 0.2 * rng.standard_normal(Nl)
+    est = KalmanRLS(2, process_cov=1e-2, noise_var=1.0, P0="diffuse")
+    with pytest.warns(AdaptidWarning, match="lower bound"):
+        fit = est.fit_variances(Phi, y, per_parameter=True)
+    assert fit.process_var[0] < 1e-3 * fit.process_var[1]
+    assert np.isnan(fit.stderr[0]) and np.isfinite(fit.stderr[1:]).all()
+
+
 # ------------------------------------------------------ results and refusals
 def test_results_follow_the_convention(data):
     pd = pytest.importorskip("pandas")

@@ -26,6 +26,10 @@ __all__ = ["VarianceFit", "fit_variances"]
 _SPAN = 30.0
 
 
+#: information in a log variance below which it counts as undetermined (se(log v) > 10)
+_FLAT = 1e-2
+
+
 def _Q(q, n):
     return np.eye(n) * q if np.ndim(q) == 0 or len(q) == 1 else np.diag(q)
 
@@ -126,8 +130,12 @@ def fit_variances(self, Phi, y, per_parameter=False, *, weights=None, method="L-
     central differences in :math:`x = \log(q, R_2)` at the estimate, its
     inverse :math:`C_x`, and the delta method
     :math:`C = D C_x D`, :math:`D = \operatorname{diag}(q, R_2)`
-    (statsmodels' ``cov_type="oim"`` in the variances, to the accuracy of
-    the differences).
+    (statsmodels' ``cov_type="approx"`` in the variances, to the accuracy
+    of the differences). A variance whose logarithm the data leave
+    undetermined (information in log v below 0.01, a standard error of
+    log v above 10: typically a variance driven to zero, where the usual
+    asymptotics do not hold) gets a NaN standard error and an
+    :class:`~adaptid.AdaptidWarning`.
 
     Parameters
     ----------
@@ -181,18 +189,29 @@ def fit_variances(self, Phi, y, per_parameter=False, *, weights=None, method="L-
 
 
 def _delta_cov(H, v):
-    """Covariance of the variances v from the Hessian H of log L in log v."""
+    """Covariance of the variances v from the Hessian H of log L in log v.
+
+    A variance whose log the data do not determine (its information in log v
+    below :data:`_FLAT`, i.e. a standard error of log v above 10: typically a
+    variance driven to zero, on the boundary where the usual asymptotics do
+    not hold) gets no standard error (NaN); the others come from the
+    information of the rest."""
     info = -H
+    keep = np.diag(info) > _FLAT
+    C = np.full(H.shape, np.nan)
     try:
-        L = np.linalg.cholesky(info)
+        L = np.linalg.cholesky(info[np.ix_(keep, keep)])
     except np.linalg.LinAlgError:
-        warnings.warn("the observed information is not positive definite at the estimate "
-                      "(a variance at its bound?): standard errors are NaN",
+        keep[:] = False
+    if not keep.all():
+        warnings.warn("the data do not determine the log of the variances at positions "
+                      f"{np.flatnonzero(~keep).tolist()} of params (at their lower bound?): "
+                      "their standard errors are NaN",
                       AdaptidWarning, stacklevel=3)
-        return np.full(H.shape, np.nan)
-    Li = np.linalg.solve(L, np.eye(len(v)))  # triangular, k × k
-    Cx = Li.T @ Li
-    return Cx * np.outer(v, v)
+    if keep.any():
+        Li = np.linalg.solve(L, np.eye(L.shape[0]))  # triangular, k × k
+        C[np.ix_(keep, keep)] = (Li.T @ Li) * np.outer(v[keep], v[keep])
+    return C
 
 
 @dataclass(frozen=True, eq=False)
