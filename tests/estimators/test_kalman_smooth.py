@@ -191,6 +191,17 @@ def test_diffuse_never_identified_has_infinite_covariance(data):
     assert np.isinf(res.stderr_filtered).all()
 
 
+def test_vague_finite_prior_warns_and_diffuse_does_not(data):
+    from adaptid import DefinitenessLossWarning
+    Phi, y, _ = data
+    with pytest.warns(DefinitenessLossWarning, match="diffuse"):
+        KalmanRLS(n, process_cov=Q, noise_var=R, P0=1e10).smooth(Phi, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = _est(True).smooth(Phi, y)
+    assert np.all(np.diagonal(res.P, axis1=1, axis2=2) > 0)
+
+
 # ------------------------------------------------------------- the likelihood
 def _dense_llf(Phi, y, theta0, P0, q, r):
     """log N(y; Φθ₀, Σ): θ_k = θ_1 + Σ_{j<k} ν_j, so Cov(θ_i, θ_j) = P0 + min(i, j)·q·I

@@ -12,11 +12,13 @@ there by name).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .. import _config
+from .._exceptions import DefinitenessLossWarning
 from .._validation import param_error
 from . import _inputs
 
@@ -124,6 +126,12 @@ def smooth(self, Phi, y, *, weights=None):
     §5.3) runs over the samples of the diffuse phase. Forward and backward
     pass are one compiled call.
 
+    The recursions are in covariance form: a finite ``P0`` far larger than
+    what the data determine (a vague prior, P₀ = 10⁸·I) cancels digits in
+    :math:`P_{k|N}` at the first samples (statsmodels' smoother does the
+    same); a :class:`~adaptid.DefinitenessLossWarning` says when it went
+    indefinite. ``P0="diffuse"`` is the exact limit and has no such loss.
+
     The filter starts from the prior (θ₀, P₀ or the diffuse start), as
     statsmodels' and MATLAB's smoothers do, and the estimator's state is
     left unchanged (unlike :meth:`run`, which continues from the current
@@ -145,6 +153,22 @@ def smooth(self, Phi, y, *, weights=None):
         ``P_filtered`` (the estimate after sample k, equal to :meth:`run`'s
         ``Trajectory.theta``); ``error`` (innovations vₖ), ``F``,
         ``loglike``; ``summary()``, ``to_frame()``, ``plot()``.
+
+    Examples
+    --------
+    The smoother and the filter agree at the last sample, and nowhere is the
+    smoothed variance above the filtered one:
+
+    >>> import numpy as np
+    >>> from adaptid import KalmanRLS
+    >>> rng = np.random.default_rng(0)
+    >>> Phi = rng.standard_normal((200, 2))
+    >>> y = Phi @ [1.0, -1.0] + 0.1 * rng.standard_normal(200)
+    >>> res = KalmanRLS(2, process_cov=1e-4, noise_var=0.01, P0="diffuse").smooth(Phi, y)
+    >>> bool(np.allclose(res.theta[-1], res.theta_filtered[-1]))
+    True
+    >>> bool(np.all(res.stderr[5:] <= res.stderr_filtered[5:] + 1e-12))
+    True
     """
     labels, Phi, y, w = prepared(self, Phi, y, weights, "smooth")
     N, n = Phi.shape
@@ -163,6 +187,11 @@ def smooth(self, Phi, y, *, weights=None):
         identified = np.cumsum(kind == 2) >= n
         if still:
             Ps[:] = np.inf  # κ-terms remain: not determined by the data
+    if N and np.min(np.diagonal(Ps, axis1=1, axis2=2)) < 0.0:
+        warnings.warn("the smoothed covariance P(k|N) lost positive definiteness: the prior P0 "
+                      "is far larger than what the data determine (a vague prior); use "
+                      "P0='diffuse' for the exact diffuse start", DefinitenessLossWarning,
+                      stacklevel=2)
     return KalmanSmoothResult(theta=As, P=Ps, theta_filtered=Af, P_filtered=PF, error=V, F=F,
                               loglike=llf_of(acc), identified=identified,
                               kind=kind, **labels)
@@ -191,6 +220,10 @@ class KalmanSmoothResult:
         Their variances :math:`F_k` (:math:`F_{*,k}` during a diffuse start).
     loglike : float
         As :meth:`KalmanRLS.loglike`.
+    kind : ndarray of int8, shape (N,)
+        Per sample: 0 missing (weight 0 or skipped), 1 ordinary, 2 a step of
+        the diffuse phase that lowered the rank of :math:`P_\infty`, 3 another
+        step of the diffuse phase.
     identified : ndarray of bool, shape (N,), or None
         With ``P0="diffuse"``: whether the filter has left the diffuse phase
         after sample k. None with a finite prior.
@@ -283,6 +316,8 @@ class KalmanSmoothResult:
         """:class:`~adaptid.Summary`: the estimate at the last sample (smoothed equals
         filtered there) with its standard error and limits, N, the log-likelihood."""
         from .._summary import Summary, parameter_rows
+        if not len(self):
+            raise ValueError("summary needs at least one sample (this result has none)")
         rows = parameter_rows(self.theta[-1], self.stderr[-1], np.inf, alpha)
         missing = int(np.count_nonzero(self.kind == 0)) if self.kind is not None else 0
         stats = {"N": len(self), "missing": missing, "log-likelihood": float(self.loglike)}
