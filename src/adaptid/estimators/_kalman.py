@@ -32,6 +32,12 @@ class KalmanRLS(RecursiveEstimator):
     ``U D Uᵀ + R₁`` and re-factorises it. Under ``nan_policy="skip"`` a
     missing sample gets the time update only (P grows by R₁, θ unchanged).
 
+    :meth:`smooth` gives the smoothed track θ(k|N) with its covariance
+    (Rauch–Tung–Striebel), :meth:`loglike` the Gaussian log-likelihood of the
+    data under this model and :meth:`fit_variances` the maximum-likelihood
+    R₁ and R₂; all three run from the prior and leave the state unchanged
+    (``docs/models/smoothing.md``).
+
     Parameters
     ----------
     n_params : int
@@ -63,12 +69,6 @@ class KalmanRLS(RecursiveEstimator):
         :math:`P_\infty = 0`, ``identified`` becomes True and the U-D filter
         continues from :math:`P_*`. The filtered θ equals statsmodels'
         state-space filter with ``initialization="diffuse"``.
-
-    :meth:`smooth` gives the smoothed track θ(k|N) with its covariance
-    (Rauch–Tung–Striebel), :meth:`loglike` the Gaussian log-likelihood of the
-    data under this model and :meth:`fit_variances` the maximum-likelihood
-    R₁ and R₂; all three run from the prior and leave the state unchanged
-    (``docs/models/smoothing.md``).
 
     References
     ----------
