@@ -6,6 +6,7 @@ import numpy as np
 
 from .. import _config
 from .._validation import as_float_array, check_int, check_scalar, param_error, symmetrised
+from . import _kalmanfit, _kalmansmooth
 from ._engine import RecursiveEstimator
 from ._spec import AlgorithmSpec
 
@@ -30,6 +31,12 @@ class KalmanRLS(RecursiveEstimator):
     predict"). The measurement update is Bierman's; the time update forms
     ``U D Uᵀ + R₁`` and re-factorises it. Under ``nan_policy="skip"`` a
     missing sample gets the time update only (P grows by R₁, θ unchanged).
+
+    :meth:`smooth` gives the smoothed track θ(k|N) with its covariance
+    (Rauch–Tung–Striebel), :meth:`loglike` the Gaussian log-likelihood of the
+    data under this model and :meth:`fit_variances` the maximum-likelihood
+    R₁ and R₂; all three run from the prior and leave the state unchanged
+    (``docs/models/smoothing.md``).
 
     Parameters
     ----------
@@ -103,3 +110,8 @@ class KalmanRLS(RecursiveEstimator):
         if self._diffuse:
             opt.append(_config.DIFFUSE_KALMAN_TOL)
         return np.array(opt), np.ascontiguousarray(self.process_cov)
+
+    # smoothing and the likelihood, from the prior (._kalmansmooth, ._kalmanfit)
+    smooth = _kalmansmooth.smooth
+    loglike = _kalmansmooth.loglike
+    fit_variances = _kalmanfit.fit_variances
