@@ -15,8 +15,11 @@ import pytest
 matplotlib.use("Agg")
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = ["README.md", "docs/guide.md", "docs/migrating.md"]
 _BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
+# the pages of the model families (docs/models/) that hold python blocks
+_MODEL_PAGES = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs" / "models").glob("*.md")
+                      if _BLOCK.search(p.read_text(encoding="utf-8")))
+PAGES = ["README.md", "docs/guide.md", "docs/migrating.md", *_MODEL_PAGES]
 
 
 def _blocks(page):
