@@ -22,6 +22,8 @@ aic / fpe / cov / to_control):
 * :class:`OE` — pseudo-linear regression (recursive: RPLR), Steiglitz–McBride;
 * :class:`BJ` — Box–Jenkins: prediction errors from a Steiglitz–McBride /
   Hannan–Rissanen start (recursive: pseudo-linear regression);
+* :class:`MIMOARX` — several outputs and inputs (``ARX`` with order
+  matrices, subpackage :mod:`adaptid.models.mimo`);
 * :class:`AR`, :class:`ARMA` — time series (least squares; Hannan–Rissanen
   and prediction errors; recursive: RLS / RELS).
 
@@ -89,6 +91,7 @@ from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import iv4, ivx
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
                         etfe, spa, tfest)
+from .mimo import MIMOARX
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 from .streaming import RecursiveAR, RecursiveARX, StreamResult
 
@@ -145,6 +148,7 @@ __all__ = [
     "RecursiveARX",
     "RecursiveAR",
     "StreamResult",
+    "MIMOARX",
 ]
 
 
