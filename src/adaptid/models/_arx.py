@@ -164,7 +164,7 @@ class ARX(_PolyModel, metaclass=ABCMeta):
         self.result = res
         return self
 
-    def fit_recursive(self, y, u=None, estimator=None):
+    def fit_recursive(self, y, u=None, estimator=None, **options):
         r"""Fit with a recursive estimator of the core, in one compiled pass.
 
         The ARX regressors do not depend on the estimates, so Φ is built
@@ -183,6 +183,10 @@ class ARX(_PolyModel, metaclass=ABCMeta):
             ``adaptid.RLS(d)``. With ``P0="diffuse"`` θ is exactly the
             (forgotten or windowed) least squares on the rows so far from
             the first full-rank row on (``Trajectory.identified``).
+        **options
+            Only for data with several outputs (the model then becomes a
+            :class:`~adaptid.models.MIMOARX`): estimator options, see
+            :meth:`MIMOARX.fit_recursive <adaptid.models.MIMOARX.fit_recursive>`.
 
         Returns
         -------
@@ -198,7 +202,10 @@ class ARX(_PolyModel, metaclass=ABCMeta):
         from .._validation import param_error
 
         if self._to_mimo(y, u):
-            return self.fit_recursive(y, u, estimator)
+            return self.fit_recursive(y, u, estimator, **options)
+        if options:
+            raise param_error("options", "none for one output (they are the estimator options "
+                              "of a multi-output fit)", f"<{sorted(options)}>", exc=TypeError)
         reg, Phi = self._prepare(y, u)
         d = Phi.shape[1]
         if estimator is None:
