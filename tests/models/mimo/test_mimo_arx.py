@@ -314,3 +314,17 @@ def test_summary_to_frame_plot(noisy):
     n, d = m.residuals.shape[0], m.n_params
     V = np.linalg.det(m.residuals.T @ m.residuals / n)
     assert m.aic == pytest.approx(n * np.log(V) + 2 * d + 2 * n * (np.log(2 * np.pi) + 1))
+
+
+def test_pandas_names_and_pickle(noisy):
+    import pickle
+
+    Y, U = noisy
+    Yf = pd.DataFrame(Y, columns=["p", "q"])
+    Uf = pd.DataFrame(U, columns=["a", "b"])
+    m = ARX(1, 1, 1).fit(Yf, Uf)
+    assert m.names[:3] == ("a1_p_p", "a1_p_q", "b0_p_a") and m.y_names == ("p", "q")
+    back = pickle.loads(pickle.dumps(m))
+    assert type(back) is MIMOARX and isinstance(back, ARX)
+    np.testing.assert_array_equal(back.theta, m.theta)
+    np.testing.assert_allclose(back.simulate(U), m.simulate(U))

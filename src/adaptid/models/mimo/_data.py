@@ -33,7 +33,8 @@ def records(data, u=None, name="data"):
         if isinstance(data, (IDData, list, tuple)):
             raise param_error("u", "None when data is an IDData, a (y, u) pair or a list",
                               "<an array>", exc=TypeError)
-        data = (data, u)
+        named = any(hasattr(v, "columns") or hasattr(v, "index") for v in (data, u))
+        data = IDData(data, u) if named else (data, u)   # pandas: their names and dt
     merged = getattr(data, "experiments", None)
     if isinstance(data, IDData) and isinstance(merged, (list, tuple)):
         data = list(merged)       # a merged IDData: its experiments, kept apart
