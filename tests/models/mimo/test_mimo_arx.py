@@ -328,3 +328,21 @@ def test_pandas_names_and_pickle(noisy):
     assert type(back) is MIMOARX and isinstance(back, ARX)
     np.testing.assert_array_equal(back.theta, m.theta)
     np.testing.assert_allclose(back.simulate(U), m.simulate(U))
+
+
+def test_fit_recursive_window_is_least_squares_on_the_window(noisy):
+    """A sliding window of M rows (negligible prior) ends at the least squares of the
+    last M rows of each equation, and σ̂ counts only those rows (the factors c_k of
+    adaptid.recursive_fit_stats' rule)."""
+    Y, U = noisy
+    M = 300
+    m = ARX(np.array(NA), np.array(NB), np.array(NK))
+    m.fit_recursive(Y, U, "window", window=M, P0=1e10)
+    Phis = [_brute_rows(Y, U, NA, NB, NK, i, 2)[-M:] for i in range(2)]
+    ths = [np.linalg.lstsq(P, Y[-M:, i], rcond=None)[0] for i, P in enumerate(Phis)]
+    np.testing.assert_allclose(m.theta, np.concatenate(ths), rtol=1e-6, atol=1e-8)
+    E = np.column_stack([Y[-M:, i] - P @ th for i, (P, th) in enumerate(zip(Phis, ths))])
+    ds = [P.shape[1] for P in Phis]
+    S01 = E[:, 0] @ E[:, 1] / np.sqrt((M - ds[0]) * (M - ds[1]))
+    assert m.noise_cov[0, 1] == pytest.approx(S01, rel=1e-5)
+    assert m.noise_cov[1, 1] == pytest.approx(E[:, 1] @ E[:, 1] / (M - ds[1]), rel=1e-5)
