@@ -22,6 +22,8 @@ aic / fpe / cov / to_control):
 * :class:`OE` — pseudo-linear regression (recursive: RPLR), Steiglitz–McBride;
 * :class:`BJ` — Box–Jenkins: prediction errors from a Steiglitz–McBride /
   Hannan–Rissanen start (recursive: pseudo-linear regression);
+* :class:`MIMOARX` — several outputs and inputs (``ARX`` with order
+  matrices, subpackage :mod:`adaptid.models.mimo`);
 * :class:`AR`, :class:`ARMA` — time series (least squares; Hannan–Rissanen
   and prediction errors; recursive: RLS / RELS).
 
@@ -96,6 +98,7 @@ from .iv import RecursiveIV, RecursiveIVResult, iv4, ivx
 from .closedloop import FeedbackResult, checkfeedback, indirect, two_stage
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
                         etfe, spa, tfest)
+from .mimo import MIMOARX
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 from .streaming import RecursiveAR, RecursiveARX, StreamResult
 
@@ -158,6 +161,7 @@ __all__ = [
     "FeedbackResult",
     "indirect",
     "two_stage",
+    "MIMOARX",
 ]
 
 

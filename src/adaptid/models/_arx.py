@@ -2,14 +2,22 @@ r"""The ARX model :math:`A(q)y_k = B(q)u_k + e_k`."""
 
 from __future__ import annotations
 
+from abc import ABCMeta
+
 import numpy as np
 
 from ._polymodel import _PolyModel
+from .mimo import MIMOARX
 
 __all__ = ["ARX"]
 
 
-class ARX(_PolyModel):
+def _matrix_orders(*specs):
+    """True when an order is given as a matrix (MIMO ARX)."""
+    return any(np.ndim(v) == 2 for v in specs if v is not None)
+
+
+class ARX(_PolyModel, metaclass=ABCMeta):
     r"""ARX model, identified by (recursive) least squares.
 
     .. math::
@@ -24,6 +32,14 @@ class ARX(_PolyModel):
     convention). The rows are the samples k = s … N-1 whose lags are all
     measured, :math:`s = \max(n_a, n_k + n_b - 1)` (no assumed initial
     values).
+
+    With matrix orders — ``na`` (ny, ny), ``nb`` and ``nk`` (ny, nu) —
+    ``ARX(na, nb, nk)`` is the multi-output model
+    :class:`~adaptid.models.MIMOARX` (MATLAB's ``arx`` convention with
+    matrix polynomials, documented there); so is a scalar-order ARX once
+    :meth:`fit` or :meth:`fit_recursive` is given data with several
+    outputs (its orders broadcast to every equation). ``isinstance(m,
+    ARX)`` is True for both.
 
     Parameters
     ----------
@@ -74,6 +90,23 @@ class ARX(_PolyModel):
 
     _order_names = ("na", "nb", "nk")
 
+    def __new__(cls, na=None, nb=None, nk=1, *args, **kwargs):
+        if cls is ARX and _matrix_orders(na, nb, nk):
+            return MIMOARX(na, nb, nk, *args, **kwargs)
+        return super().__new__(cls)
+
+    def _to_mimo(self, y, u):
+        """Become the MIMO model when the data have several outputs (True if so)."""
+        from .mimo._data import several_outputs
+
+        if not several_outputs(y, u):
+            return False
+        specs, dt = (self.na, self._nb_spec, self._nk_spec), self.dt
+        self.__dict__.clear()
+        self.__class__ = MIMOARX
+        MIMOARX.__init__(self, *specs, dt=dt)
+        return True
+
     def __init__(self, na, nb, nk=1, *, dt=1.0):
         self._init_orders(na, nb, 0, 0, nk, dt)
 
@@ -118,6 +151,8 @@ class ARX(_PolyModel):
         """
         from .._lstsq import lstsq
 
+        if self._to_mimo(y, u):
+            return self.fit(y, u)
         reg, Phi = self._prepare(y, u)
         res = lstsq(Phi, reg.y)
         self.theta = np.asarray(res.theta, dtype=np.float64)
@@ -129,7 +164,7 @@ class ARX(_PolyModel):
         self.result = res
         return self
 
-    def fit_recursive(self, y, u=None, estimator=None):
+    def fit_recursive(self, y, u=None, estimator=None, **options):
         r"""Fit with a recursive estimator of the core, in one compiled pass.
 
         The ARX regressors do not depend on the estimates, so Φ is built
@@ -148,6 +183,10 @@ class ARX(_PolyModel):
             ``adaptid.RLS(d)``. With ``P0="diffuse"`` θ is exactly the
             (forgotten or windowed) least squares on the rows so far from
             the first full-rank row on (``Trajectory.identified``).
+        **options
+            Only for data with several outputs (the model then becomes a
+            :class:`~adaptid.models.MIMOARX`): estimator options, see
+            :meth:`MIMOARX.fit_recursive <adaptid.models.MIMOARX.fit_recursive>`.
 
         Returns
         -------
@@ -162,6 +201,11 @@ class ARX(_PolyModel):
         from ..estimators import RLS, KalmanRLS, SlidingWindowRLS, recursive_fit_stats
         from .._validation import param_error
 
+        if self._to_mimo(y, u):
+            return self.fit_recursive(y, u, estimator, **options)
+        if options:
+            raise param_error("options", "none for one output (they are the estimator options "
+                              "of a multi-output fit)", f"<{sorted(options)}>", exc=TypeError)
         reg, Phi = self._prepare(y, u)
         d = Phi.shape[1]
         if estimator is None:
@@ -190,3 +234,6 @@ class ARX(_PolyModel):
         meta.update(index=reg.index, names=self.names)
         return dataclasses.replace(traj, meta=meta, names=self.names,
                                    time=self._time_of(reg.index))
+
+
+ARX.register(MIMOARX)   # isinstance(m, ARX) holds for the multi-output model ARX(matrices) makes

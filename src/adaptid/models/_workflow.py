@@ -122,8 +122,12 @@ def compare(data, *models, k=None, ax=None, names=None):
 
     Returns
     -------
-    CompareResult
+    CompareResult or tuple of CompareResult
         ``fit`` (one value per model), the outputs and ``figure`` when drawn.
+        A record with several outputs (MIMO models, whose ``simulate`` and
+        ``predict`` return (N, ny)) gives one result per output, in order
+        (:func:`adaptid.models.mimo._workflow.compare_outputs`; ``ax`` must
+        then be None).
 
     Examples
     --------
@@ -140,7 +144,6 @@ def compare(data, *models, k=None, ax=None, names=None):
     True
     """
     data, models = _split_models(data, models)
-    _single_output(data)
     if not models:
         raise param_error("models", "at least one fitted model", "<none>", exc=TypeError)
     if k is not None:
@@ -151,6 +154,15 @@ def compare(data, *models, k=None, ax=None, names=None):
         names = tuple(str(v) for v in names)
         if len(names) != len(models):
             raise param_error("names", f"{len(models)} labels", f"<{len(names)} labels>")
+    if data.n_outputs > 1:      # one result per output (MIMO models: adaptid.models.mimo)
+        from .mimo._workflow import compare_outputs
+
+        if ax is not None:
+            raise param_error("ax", "None for a record with several outputs (draw each result "
+                              "with its plot())", "<axes>")
+        return tuple(CompareResult(names=names, time=np.asarray(data.t), k=k, **r)
+                     for r in compare_outputs(data, models, k=k))
+    _single_output(data)
     y, u = data.y, data.u
     outs = []
     for m in models:
@@ -268,6 +280,8 @@ def resid(data, *models, max_lag=25, alpha=0.01, ax=None, start=None):
         For one model, its :class:`ResidResult` (the numbers, the verdicts
         ``white`` and ``independent``, and ``figure`` when drawn); for
         several, a tuple of one :class:`ResidResult` per model, in order.
+        A record with several outputs gives, per model, a tuple of one
+        result per output (:func:`adaptid.models.mimo._workflow.resid_outputs`).
     """
     data, models = _split_models(data, models)
     if not models:
@@ -282,6 +296,14 @@ def resid(data, *models, max_lag=25, alpha=0.01, ax=None, start=None):
 
 
 def _resid_one(data, model, *, max_lag, alpha, ax, start):
+    if data.n_outputs > 1:      # one result per output (MIMO models: adaptid.models.mimo)
+        from .mimo._workflow import resid_outputs
+
+        if ax is not None:
+            raise param_error("ax", "None for a record with several outputs (draw each result "
+                              "with its plot())", "<axes>")
+        return tuple(ResidResult(**r) for r in resid_outputs(data, model, max_lag=max_lag,
+                                                             alpha=alpha, start=start))
     _single_output(data)
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
     if start is None:
@@ -324,7 +346,9 @@ class OrderSelection:
         (simulation fit % on the validation record, NaN without one); a
         DataFrame when pandas is installed.
     best : tuple of int
-        (na, nb, nk) of the chosen structure.
+        (na, nb, nk) of the chosen structure (three matrices, one row per
+        output, for a record with several outputs; the table then has a
+        column ``output``).
     criterion : str
     start : int
         s, the common first row of the estimation record.
@@ -357,6 +381,12 @@ class OrderSelection:
         """
         from ._arx import ARX
 
+        if self.data.n_outputs > 1:     # order matrices, one row per output
+            from .mimo._workflow import fit_start
+
+            (na, nb, nk), own = fit_start(self.best if order is None else order,
+                                          self.data.n_outputs, self.data.n_inputs)
+            return ARX(na, nb, nk).fit(self.data[self.start - own:])
         na, nb, nk = self.best if order is None else tuple(int(v) for v in order)
         own = max(na, nk + nb - 1)
         return ARX(na, nb, nk).fit(self.data[self.start - own:])
@@ -433,7 +463,9 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
     -------
     OrderSelection
         ``table`` (DataFrame when pandas is there), ``best`` = (na, nb, nk)
-        and ``model()``.
+        and ``model()``. A record with several outputs selects each
+        output's row of the order matrices (``best`` = three matrices; see
+        :func:`adaptid.models.mimo._workflow.select_order_outputs`).
 
     Examples
     --------
@@ -450,6 +482,15 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
     from .._lstsq import lstsq
 
     data = _as_iddata(data, "data", u)
+    if data.n_outputs > 1:      # per output (adaptid.models.mimo)
+        from .mimo._workflow import select_order_outputs
+
+        check_choice(criterion, "criterion", ("aic", "fpe", "loss", "validation"))
+        table, best, s = select_order_outputs(data, _orders(na, "na", 0), _orders(nb, "nb", 1),
+                                              _orders(nk, "nk", 0), criterion=criterion,
+                                              validation=validation)
+        return OrderSelection(table=_frame(table), best=best, criterion=criterion, start=s,
+                              data=data)
     _single_output(data)
     if data.n_inputs != 1:
         raise param_error("data", "a record with one input", f"<{data.n_inputs} inputs>")
@@ -514,10 +555,13 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
                           "<no finite fit>")
     i = int(np.nanargmin(score))
     best = (int(table["na"][i]), int(table["nb"][i]), int(table["nk"][i]))
+    return OrderSelection(table=_frame(table), best=best, criterion=criterion, start=s, data=data)
+
+
+def _frame(table):
+    """The table as a DataFrame when pandas is there."""
     try:
         import pandas as pd
     except ImportError:  # pragma: no cover - pandas is optional
-        pass
-    else:
-        table = pd.DataFrame(table)
-    return OrderSelection(table=table, best=best, criterion=criterion, start=s, data=data)
+        return table
+    return pd.DataFrame(table)
