@@ -277,10 +277,11 @@ def test_cusum_result_plot(tmp_path):
 
     matplotlib.use("Agg")
     w = np.random.default_rng(0).standard_normal(40)
-    ax = cusum(w).plot()
+    fig = cusum(w).plot()
+    ax = fig.axes[0]
     assert len(ax.lines) == 3
-    cusum_squares(w).plot(ax=ax, x=np.arange(3, 43))
-    ax.figure.savefig(tmp_path / "c.png")
+    assert cusum_squares(w).plot(ax=ax, x=np.arange(3, 43)) is fig
+    fig.savefig(tmp_path / "c.png")
     import matplotlib.pyplot as plt
 
     plt.close("all")

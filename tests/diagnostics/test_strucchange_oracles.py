@@ -266,15 +266,29 @@ def test_plots(tmp_path):
     import matplotlib.pyplot as plt
 
     X, y = _regression(120, 14, shift=(70, (1.0, 0.0)))
+    from matplotlib.figure import Figure
+
+    def labelled(fig):
+        """Every line labelled; the legend outside the data area (issue 33, point 5)."""
+        assert isinstance(fig, Figure)
+        for ax in fig.axes:
+            assert all(not ln.get_label().startswith("_") for ln in ax.lines), ax.lines
+        legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+        assert len(legends) == 1
+        fig.canvas.draw()
+        box, area = legends[0].get_window_extent(), fig.axes[0].get_window_extent()
+        assert box.x0 >= area.x1  # right of the plot: never over the data
+        return fig.axes[0]
+
     for kind in ("rec-cusum", "ols-cusum", "re", "me"):
-        ax = efp(X, y, kind=kind).plot()
-        assert ax.lines
-    ax = fstats(X, y).plot()
-    assert len(ax.lines) == 3
-    breakpoints(X, y).plot()
+        assert labelled(efp(X, y, kind=kind).plot()).lines
+    assert len(labelled(fstats(X, y).plot()).lines) == 3
+    labelled(breakpoints(X, y).plot())
     mon = Monitor(X[:40], y[:40])
     mon.run(X[40:], y[40:])
-    mon.plot().figure.savefig(tmp_path / "m.png")
+    labelled(mon.plot()).figure.savefig(tmp_path / "m.png")
+    _, ax = plt.subplots()
+    assert efp(X, y, kind="ols-cusum").plot(ax=ax) is ax.figure  # drawing into given Axes
     plt.close("all")
 
 

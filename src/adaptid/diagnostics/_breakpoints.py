@@ -13,7 +13,7 @@ from .._exceptions import AdaptidWarning
 from .._kernels.layers._breakpoints import breakpoints_dp
 from .._validation import check_int, check_scalar, param_error
 from ._format import format_num, frame
-from ._sc_common import lazy_pyplot, ols, regression_data
+from ._sc_common import new_axes, ols, outside_legend, regression_data
 
 __all__ = ["BreakpointsResult", "BreakConfint", "BreakConfidenceWarning", "breakpoints"]
 
@@ -264,19 +264,22 @@ class BreakpointsResult:
         return BreakConfint(out, self._time)
 
     def plot(self, ax=None):
-        """Plot RSS and BIC against the number of breaks; returns the Axes."""
-        plt = lazy_pyplot()
-        if ax is None:
-            _, ax = plt.subplots()
+        """Plot RSS, BIC and LWZ against the number of breaks; returns the Figure.
+
+        ``ax`` (optional): draw there (the Figure returned is ``ax.figure``);
+        RSS goes on a second y axis.
+        """
+        ax = new_axes(ax)
         m = np.arange(self.rss.size)
         ax.plot(m, self.bic, "o-", label="BIC")
         ax.plot(m, self.lwz, "s-", label="LWZ")
         ax.set_xlabel("number of breaks")
+        ax.set_ylabel("information criterion")
         ax2 = ax.twinx()
-        ax2.plot(m, self.rss, "k^--", label="RSS")
-        ax.legend(loc="upper center")
-        ax2.legend(loc="upper right")
-        return ax
+        ax2.plot(m, self.rss, "k^--", label="RSS (right axis)")
+        ax2.set_ylabel("residual sum of squares")
+        outside_legend(ax2, ax)
+        return ax.figure
 
 
 def breakpoints(X, y, *, h=0.15, max_breaks=None):

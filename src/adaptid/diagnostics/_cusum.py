@@ -8,6 +8,7 @@ import numpy as np
 
 from .._validation import as_float_array, check_choice, check_scalar, param_error
 from ._format import format_num, frame
+from ._sc_common import new_axes, outside_legend
 
 __all__ = ["CusumResult", "cusum", "cusum_squares"]
 
@@ -91,29 +92,28 @@ class CusumResult:
                      ("test", "critical_value", "alpha", "crossed", "first_crossing"))
 
     def plot(self, ax=None, *, x=None):
-        """Plot the statistic and its band; returns the matplotlib Axes.
+        """Plot the statistic and its band; returns the matplotlib Figure.
 
         Parameters
         ----------
         ax : matplotlib.axes.Axes, optional
-            Where to draw; a new figure if omitted.
+            Where to draw (the Figure returned is ``ax.figure``); a new
+            figure if omitted.
         x : array_like, shape (m,), optional
             Abscissa (e.g. sample numbers n+1 … N or times); 1 … m if omitted.
         """
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as err:  # pragma: no cover - depends on the install
-            raise ImportError("plotting needs matplotlib: pip install 'adaptid[plot]'") from err
         m = self.statistic.size
         xs = np.arange(1, m + 1) if x is None else as_float_array(x, "x", shape=(m,))
-        if ax is None:
-            _, ax = plt.subplots()
+        ax = new_axes(ax)
         label = "CUSUM" if self.kind == "cusum" else "CUSUM of squares"
+        band = f"{100 * (1 - self.alpha):g} % band"
         ax.plot(xs, self.statistic, label=label)
-        ax.plot(xs, self.upper, "k--", lw=1, label=f"{100 * (1 - self.alpha):g} % band")
-        ax.plot(xs, self.lower, "k--", lw=1)
-        ax.legend(loc="upper left")
-        return ax
+        ax.plot(xs, self.upper, "k--", lw=1, label=band)
+        ax.plot(xs, self.lower, "k--", lw=1, label=band)
+        ax.set_xlabel("sample" if x is None else "x")
+        ax.set_ylabel(label)
+        outside_legend(ax)
+        return ax.figure
 
 
 def _as_residuals(w, min_len: int) -> np.ndarray:

@@ -11,7 +11,7 @@ from .._validation import check_choice, check_scalar, param_error
 from ._pvalues import efp_critical_value, pvalue_efp
 from ._recursive import recursive_residuals
 from ._format import frame, htest_text, short_repr
-from ._sc_common import lazy_pyplot, ols, regression_data, root_from_factor
+from ._sc_common import new_axes, ols, outside_legend, regression_data, root_from_factor
 
 __all__ = ["EfpResult", "efp"]
 
@@ -131,19 +131,22 @@ class EfpResult:
         return np.full(L, c)
 
     def plot(self, ax=None, *, alpha=0.05):
-        """Plot the process and its boundary; returns the matplotlib Axes."""
-        plt = lazy_pyplot()
-        if ax is None:
-            _, ax = plt.subplots()
-        ax.plot(self.index, self.process, lw=1)
+        """Plot the process and its boundary; returns the matplotlib Figure.
+
+        ``ax`` (optional): draw there (the Figure returned is ``ax.figure``).
+        """
+        ax = new_axes(ax)
+        ax.plot(self.index, self.process, lw=1, label=_NAMES[self.kind])
         b = self.boundary(alpha)
-        ax.plot(self.index, b, "r--", lw=1, label=f"{100 * (1 - alpha):g} % boundary")
-        ax.plot(self.index, -b, "r--", lw=1)
-        ax.axhline(0.0, color="k", lw=0.5)
+        band = f"{100 * (1 - alpha):g} % boundary"
+        ax.plot(self.index, b, "r--", lw=1, label=band)
+        ax.plot(self.index, -b, "r--", lw=1, label=band)
+        ax.axhline(0.0, color="k", lw=0.5, label="zero")
         ax.set_title(f"{_NAMES[self.kind]}, p = {self.pvalue:.3g}")
         ax.set_xlabel("sample")
-        ax.legend(loc="best")
-        return ax
+        ax.set_ylabel("empirical fluctuation process")
+        outside_legend(ax)
+        return ax.figure
 
 
 def _sdev(x, df=None):

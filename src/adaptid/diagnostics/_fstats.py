@@ -12,7 +12,7 @@ from .._kernels.layers._breakpoints import prefix_rss
 from .._validation import check_choice, check_int, check_scalar, param_error
 from ._pvalues import pvalue_fstats
 from ._format import frame, htest_text, short_repr
-from ._sc_common import lazy_pyplot, regression_data
+from ._sc_common import new_axes, outside_legend, regression_data
 
 __all__ = ["FstatsResult", "FTest", "ChowResult", "fstats", "chow"]
 
@@ -119,19 +119,22 @@ class FstatsResult:
         return FTest(kind, stat, p)
 
     def plot(self, ax=None, *, alpha=0.05):
-        """Plot F against the candidate break and the supF critical line; returns the Axes."""
-        plt = lazy_pyplot()
+        """Plot F against the candidate break and the supF critical line; returns the Figure.
+
+        ``ax`` (optional): draw there (the Figure returned is ``ax.figure``).
+        """
         from scipy.optimize import brentq
 
-        if ax is None:
-            _, ax = plt.subplots()
+        ax = new_axes(ax)
         ax.plot(self.candidates, self.F, lw=1, label="F statistics")
         crit = brentq(lambda c: pvalue_fstats(c, "supF", self.n_params, self.lam) - alpha, 0.0, 500.0)
         ax.axhline(crit, color="r", ls="--", lw=1, label=f"supF {100 * (1 - alpha):g} % critical value")
-        ax.axvline(self.breakpoint, color="k", ls=":", lw=1)
+        ax.axvline(self.breakpoint, color="k", ls=":", lw=1,
+                   label=f"most likely break ({self.breakpoint})")
         ax.set_xlabel("last sample before the break")
-        ax.legend(loc="best")
-        return ax
+        ax.set_ylabel("F statistic")
+        outside_legend(ax)
+        return ax.figure
 
 
 def _rss_split(X, y):

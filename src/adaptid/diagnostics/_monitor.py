@@ -13,7 +13,7 @@ from .._kernels.layers._breakpoints import moving_estimates
 from .._validation import as_float_array, check_choice, check_scalar, param_error
 from . import _sc_tables as _T
 from ._format import format_num, frame
-from ._sc_common import lazy_pyplot, ols, regression_data, root_from_factor
+from ._sc_common import new_axes, ols, outside_legend, regression_data, root_from_factor
 
 __all__ = ["Monitor"]
 
@@ -240,19 +240,25 @@ class Monitor:
         return np.concatenate(self._bounds) if self._bounds else np.empty(0)
 
     def plot(self, ax=None):
-        """Plot the monitored statistic, its boundary and the alarm; returns the Axes."""
-        plt = lazy_pyplot()
-        if ax is None:
-            _, ax = plt.subplots()
+        """Plot the monitored statistic, its boundary and the alarm; returns the Figure.
+
+        ``ax`` (optional): draw there (the Figure returned is ``ax.figure``).
+        """
+        ax = new_axes(ax)
         k = np.arange(self.n_hist, self.n_seen)
-        ax.plot(k, self.process, lw=1)
+        proc = self.process
+        names = ["OLS-CUSUM process"] if proc.ndim == 1 else [f"ME process, θ{j}"
+                                                              for j in range(proc.shape[1])]
+        for j, lab in enumerate(names):
+            ax.plot(k, proc if proc.ndim == 1 else proc[:, j], lw=1, label=lab)
         ax.plot(k, self.boundary, "r--", lw=1, label="boundary")
-        ax.plot(k, -self.boundary, "r--", lw=1)
+        ax.plot(k, -self.boundary, "r--", lw=1, label="boundary")
         if self.alarm is not None:
             ax.axvline(self.alarm, color="k", ls=":", label=f"alarm at {self.alarm}")
         ax.set_xlabel("sample")
-        ax.legend(loc="best")
-        return ax
+        ax.set_ylabel("monitored statistic")
+        outside_legend(ax)
+        return ax.figure
 
     def __repr__(self) -> str:
         return (f"Monitor(kind={self.kind!r}, n_hist={self.n_hist}, n_seen={self.n_seen}, "

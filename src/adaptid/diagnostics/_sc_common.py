@@ -42,6 +42,30 @@ def root_from_factor(R):
     return (V * np.sqrt(lam)[..., None, :]) @ np.swapaxes(V, -1, -2)
 
 
+def new_axes(ax=None):
+    """``ax``, or the Axes of a new constrained-layout Figure (room for an outside legend)."""
+    if ax is not None:
+        return ax
+    plt = lazy_pyplot()
+    _, ax = plt.subplots(layout="constrained")
+    return ax
+
+
+def outside_legend(ax, *more):
+    """One legend right of the plot (it never covers the data); repeated labels once.
+
+    ``more``: further Axes sharing the area (a ``twinx``) whose lines join the legend.
+    """
+    handles, labels = [], []
+    for a in (ax, *more):
+        for h, lab in zip(*a.get_legend_handles_labels()):
+            if lab not in labels:
+                handles.append(h)
+                labels.append(lab)
+    ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+              fontsize="small")
+
+
 def lazy_pyplot():
     try:
         import matplotlib.pyplot as plt
