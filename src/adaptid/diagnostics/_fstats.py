@@ -147,7 +147,33 @@ def _rss_split(X, y):
     return fwd, rev[::-1]
 
 
-def fstats(X, y, *, trim=0.15):
+def _window(N, n, trim, from_, to):
+    """R's ``from``/``to`` (1-based last sample of segment 1) from trim or from_/to."""
+    if from_ is not None and trim is not None:
+        raise param_error("from_", "given without trim (trim is from_ as a fraction, "
+                          "symmetric)", from_)
+    if from_ is None:
+        trim = 0.15 if trim is None else trim
+        trim = check_scalar(trim, "trim", low=0.0, high=0.5, low_open=True, high_open=True)
+        frm = int(np.floor(trim * N))
+        return frm, N - frm
+    frm = _point(from_, "from_", N)
+    stop = N - frm if to is None else _point(to, "to", N)
+    return frm, stop
+
+
+def _point(v, name, N):
+    """A fraction in (0, 1) → floor(v·N); a number ≥ 1 → that 1-based observation."""
+    v = check_scalar(v, name, low=0.0, high=float(N), low_open=True)
+    if v < 1.0:
+        return int(np.floor(v * N))
+    if v != int(v):
+        raise param_error(name, "a fraction in (0, 1) or a whole 1-based observation number",
+                          v)
+    return int(v)
+
+
+def fstats(X, y, *, trim=None, from_=None, to=None):
     r"""Chow F statistics for a break at every candidate date (R strucchange's ``Fstats``).
 
     Parameters
@@ -160,7 +186,13 @@ def fstats(X, y, *, trim=0.15):
         Fraction of the sample excluded at each end, in (0, 0.5).
         Candidates are R's points ``from = floor(trim N)`` … ``N − from``
         (1-based last sample of the first segment), clipped to
-        [n + 1, N − n − 1]. Default 0.15.
+        [n + 1, N − n − 1]. Default 0.15 (when ``from_`` is not given).
+    from_, to : float, optional
+        R's asymmetric window ``Fstats(from =, to =)``: a fraction in
+        (0, 1) (``floor(v N)``) or a 1-based observation number (the last
+        sample of the first segment); ``to`` defaults to ``N − from``.
+        ``from_`` replaces ``trim`` (give one of them). The p-values use
+        λ = (N − from)·to / (from·(N − to)) (Hansen 1997), as R does.
 
     Returns
     -------
@@ -207,11 +239,11 @@ def fstats(X, y, *, trim=0.15):
     >>> abs(fs.breakpoint - 249) <= 5, fs.test("supF").pvalue < 0.001
     (True, True)
     """
-    trim = check_scalar(trim, "trim", low=0.0, high=0.5, low_open=True, high_open=True)
     X, y = regression_data(X, y)
     N, n = X.shape
-    frm = int(np.floor(trim * N))
-    to = N - frm
+    frm, to = _window(N, n, trim, from_, to)
+    if frm >= to:
+        raise param_error("to", f"after from_ ({frm}) and before N = {N}", to)
     frm = max(frm, n + 1)
     to = min(to, N - n - 1)
     if frm > to:
