@@ -80,7 +80,8 @@ def run(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
     self._report_codes(code, None)
     if want:
         labels["stats"] = finish_stats(self, St, Th, Phi, has_constant,
-                                       Lk if self._diffuse else None)
+                                       Lk if self._diffuse else None).with_labels(
+                                           labels.get("names"), labels.get("time"))
     traj = self._finish(Th, E, skipped, store, code if self._rebuilds else 0,
                         Lk if self._reports else None, Lk)
     return replace(traj, **labels) if labels else traj

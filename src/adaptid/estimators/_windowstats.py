@@ -133,6 +133,84 @@ class WindowStats:
     def __repr__(self) -> str:
         return f"WindowStats(N={self.nobs.shape[-1]}, k_constant={self.k_constant})"
 
+    def with_labels(self, names=None, time=None) -> "WindowStats":
+        """Attach the parameter names and time axis of the data (for :meth:`to_pandas`)."""
+        object.__setattr__(self, "_names", None if names is None else tuple(names))
+        object.__setattr__(self, "_time", time)
+        return self
+
+    @property
+    def df_resid(self) -> np.ndarray:
+        """Residual degrees of freedom n_eff − n per sample (NaN where ≤ 0)."""
+        n = self.stderr.shape[-1] if self.stderr.ndim == self.nobs.ndim + 1 else \
+            self.stderr.shape[-2]
+        dof = self.n_eff - n
+        return np.where(dof > 0, dof, np.nan)
+
+    def _dof(self):
+        """df_resid shaped to broadcast against stderr/tvalues."""
+        extra = self.tvalues.ndim - self.nobs.ndim
+        return self.df_resid.reshape(self.df_resid.shape + (1,) * extra)
+
+    @property
+    def pvalues(self) -> np.ndarray:
+        r"""Two-sided p-values of :math:`t_j` per sample, Student's t with n_eff − n dof.
+
+        :math:`p = 2\,P(T_{
+u} > |t_j|)`, ν = n_eff − n: statsmodels'
+        ``RollingOLS(...).fit(use_t=True).pvalues`` without forgetting (and
+        ``OLS`` on each window). NaN where there are no degrees of freedom.
+        """
+        from scipy import stats
+
+        with np.errstate(invalid="ignore"):
+            return 2.0 * stats.t.sf(np.abs(self.tvalues), self._dof())
+
+    def conf_int(self, alpha=0.05):
+        r"""Per-sample confidence intervals θ̂ ± t_{1−α/2, ν}·se: arrays ``(lower, upper)``.
+
+        ``theta`` is not stored here: the interval is built from t = θ̂/se,
+        θ̂ = t·se (exact where se > 0).
+        """
+        from scipy import stats
+
+        from .._validation import check_scalar
+
+        alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
+        q = stats.t.ppf(1.0 - alpha / 2.0, self._dof())
+        theta = self.tvalues * self.stderr
+        return theta - q * self.stderr, theta + q * self.stderr
+
+    def to_pandas(self):
+        """The statistics as a pandas DataFrame, one row per sample.
+
+        Columns ``nobs``, ``n_eff``, ``df_resid``, ``ssr``, ``sigma2``,
+        ``rsquared``, ``rsquared_adj``, ``llf``, ``aic``, ``bic``, then per
+        parameter ``stderr[name]``, ``tvalues[name]``, ``pvalues[name]``
+        (names from the DataFrame given to ``run``, else ``theta[j]``);
+        indexed by the time axis of the data when it had one. One stream
+        and one output only.
+        """
+        import pandas as pd
+
+        if self.nobs.ndim != 1 or self.ssr.ndim != 1:
+            raise ValueError("to_pandas is for one stream with one output (index the "
+                             "batched or multi-output arrays instead)")
+        n = self.stderr.shape[1]
+        given, time = getattr(self, "_names", None), getattr(self, "_time", None)
+        names = list(given) if given is not None else [f"theta[{j}]" for j in range(n)]
+        cols = {k: getattr(self, k) for k in ("nobs", "n_eff", "df_resid", "ssr", "sigma2",
+                                                "rsquared", "rsquared_adj", "llf", "aic", "bic")}
+        pv = self.pvalues
+        for what, arr in (("stderr", self.stderr), ("tvalues", self.tvalues), ("pvalues", pv)):
+            for j, name in enumerate(names):
+                cols[f"{what}[{name}]"] = arr[:, j]
+        index = pd.Index(time, name="time") if time is not None else \
+            pd.RangeIndex(self.nobs.shape[0], name="sample")
+        return pd.DataFrame(cols, index=index)
+
+    to_frame = to_pandas
+
 
 def detect_constant(Phi) -> int:
     """1 if the regressors hold a constant, as statsmodels decides (``base/data.py``).
