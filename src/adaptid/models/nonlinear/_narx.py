@@ -7,7 +7,8 @@ import numpy as np
 from ..._validation import as_float_array, check_choice, check_int, param_error
 from .._iddata import IDData
 from .._polymodel import NotFittedError
-from ._basis import MonomialBasis, evaluate
+from ..._kernels.layers._narx import narx_simulate, narx_terms
+from ._basis import MonomialBasis
 from ._frols import CRITERIA, criteria, frols
 from ._results import NARXResult, term_name
 
@@ -376,6 +377,23 @@ class NARX:
             raise param_error("u", f"with {N} rows (as y)", f"<{U.shape[0]} rows>")
         return U
 
+    def _term_table(self):
+        """(combos (T, D) int64, θ (T,), start (p + 1,)): every output's process terms
+        in one table, output after output (the compiled simulator's layout)."""
+        combos = np.ascontiguousarray(np.vstack([r.combos for r in self.results]),
+                                      dtype=np.int64)
+        theta = np.concatenate([r.theta[: r.n_process] for r in self.results])
+        start = np.cumsum([0] + [r.n_process for r in self.results]).astype(np.int64)
+        return combos, np.ascontiguousarray(theta, dtype=np.float64), start
+
+    def _process(self, Xt, r):
+        """The process part of output r's prediction on the rows of Xt (compiled sums)."""
+        out = np.empty(Xt.shape[0])
+        narx_terms(np.ascontiguousarray(Xt, dtype=np.float64),
+                   np.ascontiguousarray(r.combos, dtype=np.int64),
+                   np.ascontiguousarray(r.theta[: r.n_process], dtype=np.float64), out)
+        return out
+
     def _out(self, Y):
         return Y[:, 0].copy() if self._p == 1 else Y
 
@@ -413,8 +431,7 @@ class NARX:
                 from scipy.signal import lfilter
 
                 c = r.theta[r.n_process:]
-                resid = Y[L:, list(self.y_names).index(r.output)] - evaluate(
-                    Xt1, r.combos) @ r.theta[: r.n_process]
+                resid = Y[L:, list(self.y_names).index(r.output)] - self._process(Xt1, r)
                 eps.append(lfilter([1.0], np.concatenate([[1.0], c]), resid))
             else:
                 eps.append(None)
@@ -424,7 +441,7 @@ class NARX:
                                                           U, rows))
             Yh = Y.copy()
             for o, r in enumerate(self.results):
-                Yh[L:, o] = evaluate(Xt, r.combos) @ r.theta[: r.n_process]
+                Yh[L:, o] = self._process(Xt, r)
                 if eps[o] is not None:  # e(t - j) is known for j >= h, else its mean 0
                     E = _lagged(eps[o], r.noise_lags)
                     E[:, : h - 1] = 0.0
@@ -479,22 +496,14 @@ class NARX:
                                   f"<shape {Y0.shape}>")
             Y[:min(L, N)] = Y0[:min(L, N)]
         yb, ub = self._base_layout()
-        yi = np.array([i for i, _ in yb], dtype=np.intp)
-        yj = np.array([j for _, j in yb], dtype=np.intp)
-        n_u = len(ub)
-        Xu = np.column_stack([np.ones(N)] + ([U[np.arange(N) - j, i] for i, j in ub]
-                                               if ub else []))
-        combos = [r.combos for r in self.results]
-        thetas = [r.theta[: r.n_process] for r in self.results]
-        ny = yi.size
-        xt = np.empty(1 + ny + n_u)
+        Xu = (np.column_stack([U[np.arange(N) - j, i] for i, j in ub]) if ub
+              else np.zeros((N, 0)))
+        combos, theta, start = self._term_table()
         with np.errstate(over="ignore", invalid="ignore"):
-            for k in range(L, N):
-                xt[0] = 1.0
-                xt[1:1 + ny] = Y[k - yj, yi]
-                xt[1 + ny:] = Xu[k, 1:]
-                for o in range(self._p):
-                    Y[k, o] = thetas[o] @ np.prod(xt[combos[o]], axis=1)
+            narx_simulate(Y, np.ascontiguousarray(Xu),
+                          np.array([i for i, _ in yb], dtype=np.int64),
+                          np.array([j for _, j in yb], dtype=np.int64),
+                          combos, theta, start, L)
         return self._out(Y)
 
     #: compare() passes the measured record as y0 to simulate (the first L outputs)
