@@ -88,7 +88,8 @@ _DEFINED_IN = {"RLS": "adaptid.estimators", "SlidingWindowRLS": "adaptid.estimat
                "KalmanRLS": "adaptid.estimators", "LMS": "adaptid.estimators",
                "NLMS": "adaptid.estimators", "ConstrainedRLS": "adaptid.constrained",
                "RecursiveARX": "adaptid.models.streaming",
-               "RecursiveAR": "adaptid.models.streaming"}
+               "RecursiveAR": "adaptid.models.streaming",
+               "RecursiveNARX": "adaptid.models.nonlinear"}
 
 
 def register_state_class(name: str, cls) -> None:

@@ -29,7 +29,8 @@ Nonlinear models linear in the parameters (subpackage :mod:`adaptid.models.nonli
 
 * :class:`NARX` — polynomial NARX, terms selected by FROLS (error reduction
   ratio) and an information criterion;
-* :func:`stlsq`, :class:`SINDy` — sparse regression of dynamics (SINDy).
+* :func:`stlsq`, :class:`SINDy` — sparse regression of dynamics (SINDy);
+* :class:`RecursiveNARX` — a selected NARX structure re-estimated sample by sample.
 
 The workflow on a measured record (:class:`IDData`, MATLAB's ``iddata``):
 :func:`select_order` (``arxstruc``/``selstruc``), :func:`compare` (fit %),
@@ -84,7 +85,7 @@ from ._regression import Regression
 from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
 from .statespace import StateSpaceModel, era, n4sid, okid
-from .nonlinear import NARX, SINDy, stlsq
+from .nonlinear import NARX, RecursiveNARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import iv4, ivx
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
@@ -145,6 +146,7 @@ __all__ = [
     "RecursiveARX",
     "RecursiveAR",
     "StreamResult",
+    "RecursiveNARX",
 ]
 
 

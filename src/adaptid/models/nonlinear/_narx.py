@@ -10,6 +10,7 @@ from .._polymodel import NotFittedError
 from ..._kernels.layers._narx import narx_simulate, narx_terms
 from ._basis import MonomialBasis
 from ._frols import CRITERIA, criteria, frols
+from ._recursive import RecursiveFitMixin
 from ._results import NARXResult, term_name
 
 __all__ = ["NARX", "NARXResult"]
@@ -23,7 +24,7 @@ def _lagged(e, q):
     return E
 
 
-class NARX:
+class NARX(RecursiveFitMixin):
     r"""Polynomial NARX model with structure selection by FROLS.
 
     .. math::
