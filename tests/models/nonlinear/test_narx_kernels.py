@@ -92,3 +92,32 @@ def test_time_series_simulation_takes_the_number_of_samples():
     np.testing.assert_array_equal(sim, naive_free_run(m, y, np.zeros((N, 0)))[:, 0])
     with pytest.raises(ValueError, match="u"):
         m.simulate(0)
+
+
+def test_max_memory_blocks_give_the_same_fit_in_bounded_memory():
+    """max_memory: the prefix products in row blocks; the N × M candidate matrix (here
+    73 MiB) is never formed, and the fit's peak allocation follows the budget."""
+    import tracemalloc
+
+    rng = np.random.default_rng(7)
+    N = 20_000
+    u = rng.uniform(-1, 1, (N, 2))
+    y = np.zeros(N)
+    for k in range(2, N):
+        y[k] = (0.5 * y[k - 1] + 0.8 * u[k - 1, 0] - 0.3 * u[k - 2, 1] * y[k - 1]
+                + 0.02 * rng.standard_normal())
+    full = NARX(4, 4, 3, n_terms=6).fit(y, u)
+    assert full.result.n_candidates == 455          # C(15, 3); Q alone is 91 columns
+    tracemalloc.start()
+    try:
+        small = NARX(4, 4, 3, n_terms=6, max_memory=2**20).fit(y, u)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert small.terms == full.terms
+    np.testing.assert_allclose(small.theta, full.theta, rtol=1e-10)
+    np.testing.assert_allclose(small.err, full.err, rtol=1e-10)
+    q_bytes = N * 91 * 8                              # the prefix products kept whole
+    assert peak < 0.75 * q_bytes, peak / 2**20
+    with pytest.raises(ValueError, match="max_memory"):
+        NARX(1, 1, max_memory=0)

@@ -85,6 +85,11 @@ class NARX(RecursiveFitMixin):
         residuals before the first row are 0). ``n_terms`` counts the
         process terms only. Simulation ignores the noise terms; k-step
         predictions use the one-step errors up to t − k.
+    max_memory : int, optional
+        Bytes for the products of the first D − 1 factors of every
+        candidate, kept between FROLS steps (default 256 MiB). The N × M
+        candidate matrix is never formed; past this budget the products are
+        recomputed in row blocks at each step (slower, same terms and θ).
 
     Attributes
     ----------
@@ -138,7 +143,7 @@ class NARX(RecursiveFitMixin):
     """
 
     def __init__(self, ylag, ulag, degree=2, *, nk=1, selection="frols", n_terms=None,
-                 criterion="aic", max_terms=30, noise_lags=0):
+                 criterion="aic", max_terms=30, noise_lags=0, max_memory=None):
         self.ylag = check_int(ylag, "ylag", low=0)
         self.ulag = check_int(ulag, "ulag", low=0)
         self.degree = check_int(degree, "degree", low=1)
@@ -148,6 +153,8 @@ class NARX(RecursiveFitMixin):
         self.criterion = check_choice(criterion, "criterion", CRITERIA)
         self.max_terms = check_int(max_terms, "max_terms", low=1)
         self.noise_lags = check_int(noise_lags, "noise_lags", low=0)
+        self.max_memory = None if max_memory is None else check_int(max_memory, "max_memory",
+                                                                    low=1)
         self.results = None
         self._fit_record = None
 
@@ -249,7 +256,7 @@ class NARX(RecursiveFitMixin):
             lengths.append(rows_i.size)
         Yrows = np.vstack(targets)
         rows = np.concatenate(index)
-        basis = MonomialBasis(np.vstack(blocks), self.degree)
+        basis = MonomialBasis(np.vstack(blocks), self.degree, budget=self.max_memory)
         M = basis.M
         if rows.size <= 2:
             raise param_error("data", f"longer than the largest lag L={L} plus 2 samples",
