@@ -251,14 +251,20 @@ class RecursiveNARX:
 
     # ------------------------------------------------------------ regressors
     def _signals(self, y, u):
-        """(Y (N, p), U (N, m), dt or None) of a record in any of NARX.fit's forms."""
+        """(Y (N, p), U (N, m), dt or None) of one record: IDData, (y, u) or arrays."""
         from .._iddata import IDData
-        from ._narx import NARX
 
-        rec = NARX._record(y, u)
-        if isinstance(rec, list):
-            raise param_error("y", "one record (run each record in turn)", "<a list of records>",
-                              exc=TypeError)
+        if isinstance(y, IDData):
+            if u is not None:
+                raise param_error("u", "None when y is an IDData", "<an array>", exc=TypeError)
+            rec = y
+        else:
+            if isinstance(y, tuple) and u is None:
+                if len(y) != 2:
+                    raise param_error("y", "an IDData, a (y, u) pair or an array",
+                                      f"<tuple of {len(y)}>", exc=TypeError)
+                y, u = y
+            rec = IDData(y, u)
         if (rec.n_outputs, rec.n_inputs) != (self._p, self._m):
             raise param_error("y", f"a record with {self._p} output(s) and {self._m} input(s)",
                               f"<{rec.n_outputs} outputs, {rec.n_inputs} inputs>")
