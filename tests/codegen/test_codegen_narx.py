@@ -216,3 +216,19 @@ def test_refusals(model, tmp_path):
     assert (h.name, c.name) == ("plant.h", "plant.c")
     assert "void plant_step(plant_t *s, const double *y, const double *u, double *yhat);" \
         in h.read_text()
+
+
+def test_cli_export_c_of_a_streaming_narx_state_file(model, tmp_path, capsys):
+    """``adaptid export-c`` reads a RecursiveNARX state file and writes its current
+    model's predictor (the same text as to_c of to_model)."""
+    from adaptid.cli import main
+    from adaptid.codegen._narx import generate_narx
+
+    m, y, u = model
+    obj = RecursiveNARX(m, forgetting=0.999)
+    obj.run((y[:500], u[:500]))
+    obj.save_state(tmp_path / "narx.npz")
+    assert main(["export-c", str(tmp_path / "narx.npz"), "--out", str(tmp_path / "c"),
+                 "--name", "plant"]) == 0
+    assert (tmp_path / "c" / "plant.c").read_text() == generate_narx(obj, name="plant")[1]
+    capsys.readouterr()

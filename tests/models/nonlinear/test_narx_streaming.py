@@ -197,6 +197,9 @@ def test_to_model_and_from_terms(fitted):
     assert mm.terms == m.terms
     np.testing.assert_allclose(mm.simulate(u, y0=y), m.simulate(u, y0=y), atol=1e-3)
     assert mm.to_equations().startswith("y(k) = ")
+    assert np.all(np.isnan(mm.stderr))             # no batch statistics
+    with pytest.raises(ValueError, match="model must be a batch fit"):
+        mm.summary()
     t = RecursiveNARX.from_terms(list(m.terms), 2, 2, u_names=("u1", "u2"), P0=1e8)
     np.testing.assert_array_equal(t.run((y, u)).theta[-1], obj.theta)
     np.testing.assert_array_equal(t.to_model().simulate(u, y0=y), mm.simulate(u, y0=y))
