@@ -186,6 +186,19 @@ def test_state_file_round_trip_mid_stream(fitted, tmp_path):
     assert RecursiveNARX.from_state(a.get_state()).terms == m.terms
     with pytest.raises(adaptid.StateFileError):
         adaptid.models.RecursiveARX.load_state(tmp_path / "narx.npz")
+    # damaged states are refused with the field named
+    st = a.get_state()
+    st["ybuf"] = st["ybuf"][:1]
+    with pytest.raises(ValueError, match="state must be lag buffers"):
+        RecursiveNARX.from_state(st)
+    st = a.get_state()
+    st["options"]["outputs"][0]["combos"][0] = [0, 99]
+    with pytest.raises(ValueError, match="terms must be index tuples"):
+        RecursiveNARX.from_state(st)
+    st = a.get_state()
+    del st["inner"]
+    with pytest.raises(ValueError, match="state must be a complete dict"):
+        RecursiveNARX.from_state(st)
 
 
 def test_to_model_and_from_terms(fitted):

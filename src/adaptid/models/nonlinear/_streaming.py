@@ -231,6 +231,13 @@ class RecursiveNARX:
         self.max_lag = probe.max_lag
         self._yb, self._ub = probe._base_layout()
         self._Lu = max([j for _, j in self._ub] + [0])
+        n_base = len(self._yb) + len(self._ub)
+        for c, t, n in self._outs:
+            if c.shape != (len(n), degree) or t.shape != (len(n),) or \
+                    (c.size and (c.min() < 0 or c.max() > n_base)):
+                raise param_error("terms", f"index tuples of length {degree} into the "
+                                  f"{n_base} base variables, one per term and θ",
+                                  f"<combos of shape {c.shape}, {t.size} values>")
 
     @property
     def estimator(self):
@@ -419,12 +426,16 @@ class RecursiveNARX:
                        o["dt"], outs, o["output"])
             obj.start = check_choice(o["start"], "state['options']['start']", _STARTS)
             obj._est = estimator_from_state(state["inner"])
-            ybuf = np.array(state["ybuf"], dtype=np.float64).reshape(obj.ylag, obj._p)
-            ubuf = np.array(state["ubuf"], dtype=np.float64).reshape(obj._Lu, obj._m)
+            ybuf = np.array(state["ybuf"], dtype=np.float64)
+            ubuf = np.array(state["ubuf"], dtype=np.float64)
             count = o["count"]
         except (KeyError, TypeError) as err:
             raise param_error("state", "a complete dict from get_state()",
                               f"<{type(err).__name__}: {err}>") from None
+        if ybuf.shape != (obj.ylag, obj._p) or ubuf.shape != (obj._Lu, obj._m):
+            raise param_error("state", "lag buffers of the model's structure "
+                              f"({(obj.ylag, obj._p)}, {(obj._Lu, obj._m)})",
+                              f"<shapes {ybuf.shape}, {ubuf.shape}>")
         if obj._est.n_params != obj.n_params:
             raise param_error("state['inner']", f"an estimator of {obj.n_params} parameters",
                               f"<{obj._est.n_params} parameters>")
