@@ -116,9 +116,11 @@ def test_fit_recursive_refusals(fitted):
         m.fit_recursive(IDData(np.c_[y, y], u))
     mn = NARX(1, 1, 2, n_terms=2, noise_lags=1).fit(y, u)
     with pytest.raises(ValueError, match="noise_lags"):
-        mn.fit_recursive(y, u)
-    with pytest.raises(ValueError, match="noise_lags"):
         RecursiveNARX(mn)
+    with pytest.raises(ValueError, match="estimator must be an RLS, SlidingWindowRLS"):
+        mn.fit_recursive(y, u, "lms", step=0.1)
+    with pytest.raises(ValueError, match="data must be one record for a NARMAX"):
+        mn.fit_recursive([IDData(y, u), IDData(y, u)])
 
 
 def test_mimo_and_several_experiments():
@@ -247,3 +249,47 @@ def test_mimo_streaming_one_output():
     np.testing.assert_array_equal(mm.theta[1], obj.theta)
     np.testing.assert_allclose(mm.simulate(d), y, atol=1e-2)  # noise-free: close to the record
     np.testing.assert_array_equal(mm.theta[0], m.theta[0])  # the other output's batch θ
+
+
+def naive_rels(Y, Phi_fix, q, lam, M, P0):
+    """Recursive extended least squares by direct solves: at each k the regressor is
+    [process terms, ε(k-1) … ε(k-q)] with ε the a-posteriori residuals so far, and θ_k
+    the (forgotten, windowed) ridge solution on the rows formed (information form)."""
+    N, nf = Phi_fix.shape
+    n = nf + q
+    eps = np.zeros(N)
+    rows = np.zeros((N, n))
+    Th = np.zeros((N, n))
+    for k in range(N):
+        rows[k] = np.r_[Phi_fix[k], [eps[k - j] if k >= j else 0.0 for j in range(1, q + 1)]]
+        lo = 0 if M == 0 else max(0, k - M + 1)
+        w = lam ** (k - np.arange(lo, k + 1))
+        R = (rows[lo:k + 1] * w[:, None]).T @ rows[lo:k + 1] + lam ** (k + 1) * np.eye(n) / P0
+        Th[k] = np.linalg.solve(R, (rows[lo:k + 1] * w[:, None]).T @ Y[lo:k + 1])
+        eps[k] = Y[k] - rows[k] @ Th[k]
+    return Th, rows
+
+
+@pytest.mark.parametrize("lam, window", [(1.0, 0), (0.99, 0), (1.0, 80)])
+def test_narmax_recursive_extended_least_squares(lam, window):
+    rng = np.random.default_rng(5)
+    N = 300
+    u = rng.uniform(-1, 1, N)
+    e = 0.05 * rng.standard_normal(N)
+    y = np.zeros(N)
+    for k in range(1, N):
+        y[k] = 0.5 * y[k - 1] + u[k - 1] - 0.3 * u[k - 1] * y[k - 1] + e[k] + 0.6 * e[k - 1]
+    m = NARX(1, 1, 2, n_terms=3, noise_lags=2).fit(y, u)
+    est = (adaptid.RLS(5, forgetting=lam, P0=100.0) if window == 0
+           else adaptid.SlidingWindowRLS(5, window, forgetting=lam, P0=100.0))
+    tr = m.fit_recursive(y, u, est)
+    k = np.arange(1, N)
+    base = {"y(k-1)": y[k - 1], "u(k-1)": u[k - 1]}
+    Phi = np.column_stack([np.prod([base[f] for f in t.split("*")], axis=0)
+                           for t in m.terms[:3]])
+    ref, rows = naive_rels(y[1:], Phi, 2, lam, window, 100.0)
+    np.testing.assert_allclose(tr.theta, ref, rtol=1e-6, atol=1e-8)
+    np.testing.assert_allclose(tr.meta["regressors"], rows, rtol=1e-6, atol=1e-8)
+    assert tr.names == m.terms and tr.names[3:] == ("e(k-1)", "e(k-2)")
+    if lam == 1.0 and window == 0:   # close to the batch extended least squares
+        np.testing.assert_allclose(tr.theta[-1], m.theta, atol=0.15)

@@ -63,6 +63,26 @@ def selected_regressors(model, recs):
     return Phis, np.ascontiguousarray(np.vstack(targets)), np.concatenate(index)
 
 
+def _rels(Phi, y, q, est):
+    """RELS of a NARMAX: the process regressors then q lags of the a-posteriori
+    residual, on the compiled pseudo-linear kernel; a Trajectory."""
+    from ...estimators import KalmanRLS, RLS, SlidingWindowRLS, Trajectory
+    from .._recursive import regressors_used, run_signals, signal_spec
+
+    if not isinstance(est, (RLS, SlidingWindowRLS, KalmanRLS)):
+        raise param_error("estimator", "an RLS, SlidingWindowRLS or KalmanRLS (or its name) "
+                          "for a NARMAX's recursive extended least squares",
+                          f"<{type(est).__name__}>")
+    n = Phi.shape[1] + q
+    groups = (np.zeros(n, dtype=np.int64), np.zeros(q, dtype=np.int64),
+              np.arange(1, q + 1, dtype=np.int64), 1)
+    spec = signal_spec(groups, 1.0, -1.0, 1.0, n)   # ε = y − φᵀθ, lagged with sign +1
+    Th, E, V, _, _, Lk, n_rebuilds = run_signals(Phi, y, spec, est)
+    return Trajectory(theta=Th, error=E, skipped=np.zeros(E.shape[0], dtype=bool),
+                      n_rebuilds=n_rebuilds, forgetting=Lk,
+                      meta={"regressors": regressors_used(Phi, V, spec)})
+
+
 class RecursiveFitMixin:
     """``fit_recursive`` of :class:`~adaptid.models.NARX` (kept apart: the model module's size)."""
 
@@ -71,7 +91,7 @@ class RecursiveFitMixin:
 
         The structure (the terms FROLS selected at :meth:`fit`) is kept;
         its regressors :math:`\varphi_k = [p_j(k)]_{j\in S}` do not depend on
-        θ, so they are formed once and the estimator runs over them
+        θ (noise terms aside: see Notes), so they are formed once and the estimator runs over them
         (:meth:`adaptid.RLS.run`: one compiled loop). With RLS, λ = 1 and a
         large P₀ the final estimate is the batch θ up to the prior; a
         forgetting factor, a window or a Kalman random walk track a plant
@@ -114,24 +134,38 @@ class RecursiveFitMixin:
         Raises
         ------
         ValueError
-            NARMAX models (``noise_lags``: the lagged residuals depend on θ;
-            re-estimate the process terms of a model without them), a record
-            with other signals, an estimator of another size.
+            A record with other signals, an estimator of another size; for a
+            NARMAX, several records or a gradient estimator.
+
+        Notes
+        -----
+        NARMAX (``noise_lags`` q): the regressor ends with the lagged
+        residuals :math:`\varepsilon(k-1), …, \varepsilon(k-q)`, which the
+        recursion forms from its own estimates, the a-posteriori
+        :math:`\varepsilon(k) = y(k) - \varphi_k^T\hat\theta_k` (recursive
+        extended least squares, Söderström & Stoica (1989), sec. 9.4; 0
+        before the first row), in the compiled pseudo-linear kernel of
+        ARMAX with an RLS, SlidingWindowRLS or KalmanRLS (its settings read;
+        ``estimators`` then holds the estimator as built, not advanced);
+        ``meta["regressors"]`` holds the regressor rows it formed.
         """
         from .._iddata import IDData
 
         self._check_fitted()
-        if self.noise_lags:
-            raise param_error("noise_lags", "0 for fit_recursive (a NARMAX's noise terms need "
-                              "a pseudo-linear recursion)", self.noise_lags)
         recs = self._record(data, u)
         recs = recs if isinstance(recs, list) else [recs]
+        if self.noise_lags and len(recs) > 1:
+            raise param_error("data", "one record for a NARMAX (noise_lags > 0): its lagged "
+                              "residuals restart with each record", f"<{len(recs)} records>")
         Phis, Y, rows = selected_regressors(self, recs)
         trajs, ests = [], []
         for o, (r, Phi) in enumerate(zip(self.results, Phis)):
-            est = make_estimator(estimator, Phi.shape[1], options,
-                                 f"the {Phi.shape[1]} terms of output {r.output}")
-            traj = est.run(Phi, np.ascontiguousarray(Y[:, o]))
+            d = Phi.shape[1] + self.noise_lags
+            est = make_estimator(estimator, d, options, f"the {d} terms of output {r.output}")
+            if self.noise_lags:
+                traj = _rels(Phi, np.ascontiguousarray(Y[:, o]), self.noise_lags, est)
+            else:
+                traj = est.run(Phi, np.ascontiguousarray(Y[:, o]))
             time = None
             if len(recs) == 1 and isinstance(recs[0], IDData) and recs[0].time is not None:
                 time = np.asarray(recs[0].time)[rows]
