@@ -13,6 +13,7 @@ process part, to rounding).
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from pathlib import Path
 
@@ -28,9 +29,12 @@ _F32_MAX = float(np.finfo(np.float32).max)
 
 
 def is_narx(obj) -> bool:
-    """True for an adaptid NARX or RecursiveNARX (the objects this module exports)."""
-    from ..models.nonlinear import NARX, RecursiveNARX
-    return isinstance(obj, (NARX, RecursiveNARX))
+    """True for an adaptid NARX or RecursiveNARX (the objects this module exports).
+
+    Without importing the models: if their module is not loaded, ``obj`` is
+    not one of them (``to_c`` of an estimator stays as quick to start)."""
+    mod = sys.modules.get("adaptid.models.nonlinear")
+    return mod is not None and isinstance(obj, (mod.NARX, mod.RecursiveNARX))
 
 
 def _model_of(obj):
