@@ -175,8 +175,12 @@ def t_frols(outs, jsons):
              r["same_terms"])]
     if "large" in r:
         g = r["large"]
-        rows.append((f"{g['N']}, {g['candidates']}, {g['terms']}", f"{g['adaptid_s']:.3f}",
-                     "–", "–", "–"))
+        rows.append((f"{g['N']}, {g['candidates']}, {g['terms']}",
+                     f"{g['adaptid_s']:.3f} (peak {g['peak_mib']:.0f} MiB)", "–", "–", "–"))
+        if "blocked_s" in g:
+            rows.append((f"same, max_memory={g['blocked_max_memory_mib']:g} MiB",
+                         f"{g['blocked_s']:.3f} (peak {g['blocked_peak_mib']:.0f} MiB)",
+                         "–", "–", g["blocked_same_terms"]))
     return _table(("N, candidates, terms", "adaptid NARX.fit, s", "sysidentpy FROLS.fit, s",
                    "ratio", "same terms"), rows)
 

@@ -412,7 +412,9 @@ def test_public_index():
                 # issue 37: closed-loop identification
                 "checkfeedback", "FeedbackResult", "indirect", "two_stage",
                 # issue 34: MIMO ARX
-                "MIMOARX"}
+                "MIMOARX",
+                # issue 35: streaming NARX
+                "RecursiveNARX"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

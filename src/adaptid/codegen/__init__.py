@@ -87,6 +87,16 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
     tuple of pathlib.Path
         The paths of ``NAME.h`` and ``NAME.c``.
 
+    See Also
+    --------
+    adaptid.models.NARX : a fitted NARX (or a
+        :class:`~adaptid.models.RecursiveNARX`) given as ``est`` is exported as
+        its predictor, ``void NAME_step(NAME_t *s, const real *y, const real *u,
+        real *yhat)``: lag buffers and the selected terms with the fitted θ
+        (one-step prediction, or a free run with ``y = NULL``), bit for bit
+        ``predict`` / ``simulate`` in double precision with ``-ffp-contract=off``
+        (``docs/models/nonlinear.md``).
+
     Examples
     --------
     >>> import tempfile, numpy as np, adaptid
@@ -97,6 +107,9 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
     >>> "double motor_update(motor_t *s, const double phi[MOTOR_N], double y);" in h.read_text()
     True
     """
+    from ._narx import is_narx, write_narx
+    if is_narx(est):  # a NARX predictor (codegen/_narx.py), not an estimator's recursion
+        return write_narx(est, directory, name=name, dtype=dtype)
     if not hasattr(est, "get_state"):
         from .._validation import param_error
         raise param_error("est", "an adaptid RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS",

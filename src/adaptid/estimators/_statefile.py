@@ -89,7 +89,8 @@ _DEFINED_IN = {"RLS": "adaptid.estimators", "SlidingWindowRLS": "adaptid.estimat
                "NLMS": "adaptid.estimators", "ConstrainedRLS": "adaptid.constrained",
                "RecursiveARX": "adaptid.models.streaming",
                "RecursiveAR": "adaptid.models.streaming",
-               "RecursiveIV": "adaptid.models.iv"}
+               "RecursiveIV": "adaptid.models.iv",
+               "RecursiveNARX": "adaptid.models.nonlinear"}
 
 
 def register_state_class(name: str, cls) -> None:

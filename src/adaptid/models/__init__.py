@@ -31,7 +31,8 @@ Nonlinear models linear in the parameters (subpackage :mod:`adaptid.models.nonli
 
 * :class:`NARX` — polynomial NARX, terms selected by FROLS (error reduction
   ratio) and an information criterion;
-* :func:`stlsq`, :class:`SINDy` — sparse regression of dynamics (SINDy).
+* :func:`stlsq`, :class:`SINDy` — sparse regression of dynamics (SINDy);
+* :class:`RecursiveNARX` — a selected NARX structure re-estimated sample by sample.
 
 The workflow on a measured record (:class:`IDData`, MATLAB's ``iddata``):
 :func:`select_order` (``arxstruc``/``selstruc``), :func:`compare` (fit %),
@@ -92,7 +93,7 @@ from ._regression import Regression
 from ._summary import model_summary, recursive_summary
 from ._table import table_regressors
 from .statespace import StateSpaceModel, era, n4sid, okid
-from .nonlinear import NARX, SINDy, stlsq
+from .nonlinear import NARX, RecursiveNARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import RecursiveIV, RecursiveIVResult, iv4, ivx
 from .closedloop import FeedbackResult, checkfeedback, indirect, two_stage
@@ -162,6 +163,7 @@ __all__ = [
     "indirect",
     "two_stage",
     "MIMOARX",
+    "RecursiveNARX",
 ]
 
 

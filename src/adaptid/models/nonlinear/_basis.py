@@ -79,6 +79,8 @@ class MonomialBasis:
         self._flat = pidx * (n + 1) + self.combos[:, -1]
         n_pref = self._prefixes.shape[0]
         budget = Q_BUDGET if budget is None else budget
+        # columns of Q squared at once in sq_norms: a quarter of the budget, at most 4096
+        self._sq_step = int(min(4096, max(1, budget // (32 * n_pref))))
         self._rows = N if N * n_pref * 8 <= budget else max(1, budget // (8 * n_pref))
         self._Q = self._prefix_products(slice(0, N)) if self._rows == N else None
 
@@ -107,6 +109,8 @@ class MonomialBasis:
         return QT
 
     def _blocks(self):
+        """Row slices and Qᵀ on each: the cached Q, or one block at a time (the
+        caller drops its block before the next is built: one block in memory)."""
         if self._Q is not None:
             yield slice(0, self.N), self._Q
             return
@@ -117,8 +121,10 @@ class MonomialBasis:
     def project(self, w):
         r"""All :math:`p_j^T w`, shape (M,), for w of shape (N,)."""
         G = np.zeros((self._prefixes.shape[0], self.n + 1))
-        for rows, QT in self._blocks():
+        blocks = self._blocks()
+        for rows, QT in blocks:
             G += QT @ (w[rows, None] * self.Xt[rows])
+            del QT
         return G.ravel()[self._flat]
 
     def sq_norms(self):
@@ -126,10 +132,11 @@ class MonomialBasis:
         G = np.zeros((self._prefixes.shape[0], self.n + 1))
         for rows, QT in self._blocks():
             X2 = self.Xt[rows] ** 2
-            step = 4096  # squares in slices: no second copy of Q
+            step = self._sq_step  # squares in slices: no second copy of Q
             for s0 in range(0, QT.shape[1], step):
                 Qs = QT[:, s0:s0 + step]
                 G += (Qs * Qs) @ X2[s0:s0 + step]
+            del QT, Qs
         return G.ravel()[self._flat]
 
     def columns(self, js):

@@ -7,8 +7,10 @@ import numpy as np
 from ..._validation import as_float_array, check_choice, check_int, param_error
 from .._iddata import IDData
 from .._polymodel import NotFittedError
-from ._basis import MonomialBasis, evaluate
+from ..._kernels.layers._narx import narx_simulate, narx_terms
+from ._basis import MonomialBasis
 from ._frols import CRITERIA, criteria, frols
+from ._recursive import RecursiveFitMixin
 from ._results import NARXResult, term_name
 
 __all__ = ["NARX", "NARXResult"]
@@ -22,7 +24,7 @@ def _lagged(e, q):
     return E
 
 
-class NARX:
+class NARX(RecursiveFitMixin):
     r"""Polynomial NARX model with structure selection by FROLS.
 
     .. math::
@@ -83,6 +85,11 @@ class NARX:
         residuals before the first row are 0). ``n_terms`` counts the
         process terms only. Simulation ignores the noise terms; k-step
         predictions use the one-step errors up to t − k.
+    max_memory : int, optional
+        Bytes for the products of the first D − 1 factors of every
+        candidate, kept between FROLS steps (default 256 MiB). The N × M
+        candidate matrix is never formed; past this budget the products are
+        recomputed in row blocks at each step (slower, same terms and θ).
 
     Attributes
     ----------
@@ -136,7 +143,7 @@ class NARX:
     """
 
     def __init__(self, ylag, ulag, degree=2, *, nk=1, selection="frols", n_terms=None,
-                 criterion="aic", max_terms=30, noise_lags=0):
+                 criterion="aic", max_terms=30, noise_lags=0, max_memory=None):
         self.ylag = check_int(ylag, "ylag", low=0)
         self.ulag = check_int(ulag, "ulag", low=0)
         self.degree = check_int(degree, "degree", low=1)
@@ -146,6 +153,8 @@ class NARX:
         self.criterion = check_choice(criterion, "criterion", CRITERIA)
         self.max_terms = check_int(max_terms, "max_terms", low=1)
         self.noise_lags = check_int(noise_lags, "noise_lags", low=0)
+        self.max_memory = None if max_memory is None else check_int(max_memory, "max_memory",
+                                                                    low=1)
         self.results = None
         self._fit_record = None
 
@@ -247,7 +256,7 @@ class NARX:
             lengths.append(rows_i.size)
         Yrows = np.vstack(targets)
         rows = np.concatenate(index)
-        basis = MonomialBasis(np.vstack(blocks), self.degree)
+        basis = MonomialBasis(np.vstack(blocks), self.degree, budget=self.max_memory)
         M = basis.M
         if rows.size <= 2:
             raise param_error("data", f"longer than the largest lag L={L} plus 2 samples",
@@ -376,6 +385,23 @@ class NARX:
             raise param_error("u", f"with {N} rows (as y)", f"<{U.shape[0]} rows>")
         return U
 
+    def _term_table(self):
+        """(combos (T, D) int64, θ (T,), start (p + 1,)): every output's process terms
+        in one table, output after output (the compiled simulator's layout)."""
+        combos = np.ascontiguousarray(np.vstack([r.combos for r in self.results]),
+                                      dtype=np.int64)
+        theta = np.concatenate([r.theta[: r.n_process] for r in self.results])
+        start = np.cumsum([0] + [r.n_process for r in self.results]).astype(np.int64)
+        return combos, np.ascontiguousarray(theta, dtype=np.float64), start
+
+    def _process(self, Xt, r):
+        """The process part of output r's prediction on the rows of Xt (compiled sums)."""
+        out = np.empty(Xt.shape[0])
+        narx_terms(np.ascontiguousarray(Xt, dtype=np.float64),
+                   np.ascontiguousarray(r.combos, dtype=np.int64),
+                   np.ascontiguousarray(r.theta[: r.n_process], dtype=np.float64), out)
+        return out
+
     def _out(self, Y):
         return Y[:, 0].copy() if self._p == 1 else Y
 
@@ -413,8 +439,7 @@ class NARX:
                 from scipy.signal import lfilter
 
                 c = r.theta[r.n_process:]
-                resid = Y[L:, list(self.y_names).index(r.output)] - evaluate(
-                    Xt1, r.combos) @ r.theta[: r.n_process]
+                resid = Y[L:, list(self.y_names).index(r.output)] - self._process(Xt1, r)
                 eps.append(lfilter([1.0], np.concatenate([[1.0], c]), resid))
             else:
                 eps.append(None)
@@ -424,7 +449,7 @@ class NARX:
                                                           U, rows))
             Yh = Y.copy()
             for o, r in enumerate(self.results):
-                Yh[L:, o] = evaluate(Xt, r.combos) @ r.theta[: r.n_process]
+                Yh[L:, o] = self._process(Xt, r)
                 if eps[o] is not None:  # e(t - j) is known for j >= h, else its mean 0
                     E = _lagged(eps[o], r.noise_lags)
                     E[:, : h - 1] = 0.0
@@ -479,22 +504,14 @@ class NARX:
                                   f"<shape {Y0.shape}>")
             Y[:min(L, N)] = Y0[:min(L, N)]
         yb, ub = self._base_layout()
-        yi = np.array([i for i, _ in yb], dtype=np.intp)
-        yj = np.array([j for _, j in yb], dtype=np.intp)
-        n_u = len(ub)
-        Xu = np.column_stack([np.ones(N)] + ([U[np.arange(N) - j, i] for i, j in ub]
-                                               if ub else []))
-        combos = [r.combos for r in self.results]
-        thetas = [r.theta[: r.n_process] for r in self.results]
-        ny = yi.size
-        xt = np.empty(1 + ny + n_u)
+        Xu = (np.column_stack([U[np.arange(N) - j, i] for i, j in ub]) if ub
+              else np.zeros((N, 0)))
+        combos, theta, start = self._term_table()
         with np.errstate(over="ignore", invalid="ignore"):
-            for k in range(L, N):
-                xt[0] = 1.0
-                xt[1:1 + ny] = Y[k - yj, yi]
-                xt[1 + ny:] = Xu[k, 1:]
-                for o in range(self._p):
-                    Y[k, o] = thetas[o] @ np.prod(xt[combos[o]], axis=1)
+            narx_simulate(Y, np.ascontiguousarray(Xu),
+                          np.array([i for i, _ in yb], dtype=np.int64),
+                          np.array([j for _, j in yb], dtype=np.int64),
+                          combos, theta, start, L)
         return self._out(Y)
 
     #: compare() passes the measured record as y0 to simulate (the first L outputs)

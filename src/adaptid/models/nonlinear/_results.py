@@ -131,8 +131,13 @@ class NARXResult:
             ``print`` it for text; notebooks show its HTML.
         """
         from ..._teststats import ljung_box
+        from ..._validation import param_error
 
         r = self.residuals
+        if r.size == 0:
+            raise param_error("model", "a batch fit (NARX.fit) for summary(): a model of "
+                              "RecursiveNARX.to_model has no residuals or covariance",
+                              f"<output {self.output} without residuals>")
         n, d = r.size, self.theta.size
         ssr = float(r @ r)
         rows = parameter_rows(self.theta, self.stderr, n - d, alpha)
