@@ -139,6 +139,10 @@ class FrequencyResponse:
         """Phase of G in radians, unwrapped along the frequency axis."""
         return np.unwrap(np.angle(self.response), axis=-1)
 
+    def __array__(self, dtype=None, copy=None):
+        """``np.asarray(fr)`` is :attr:`response`."""
+        return self.response if dtype is None else self.response.astype(dtype)
+
     @property
     def is_siso(self):
         """True when ``response`` has shape (nw,)."""

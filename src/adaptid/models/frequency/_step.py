@@ -109,6 +109,10 @@ class StepResponse:
         self.y_names, self.u_names = tuple(y_names), tuple(u_names)
         self.time_unit = time_unit
 
+    def __array__(self, dtype=None, copy=None):
+        """``np.asarray(sr)`` is :attr:`response`."""
+        return self.response if dtype is None else self.response.astype(dtype)
+
     def _pairs(self):
         R = self.response.reshape(len(self.y_names), len(self.u_names), -1)
         S = None if self.sd is None else self.sd.reshape(R.shape)
