@@ -406,7 +406,9 @@ def test_public_index():
                 # issue 36: step responses, roots, transfer-function estimation
                 "tfest", "TransferFunctionModel", "StepResponse", "Roots",
                 # issue 33: streaming model objects
-                "RecursiveARX", "RecursiveAR", "StreamResult"}
+                "RecursiveARX", "RecursiveAR", "StreamResult",
+                # issue 36: frequency-dependent resolution spectral analysis
+                "spafdr"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

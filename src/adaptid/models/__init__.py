@@ -53,6 +53,7 @@ Frequency domain (subpackage :mod:`adaptid.models.frequency`):
 :class:`FrequencyResponse` (Bode with confidence bands; returned by every
 polynomial model's ``freqresp``), :func:`spa` (Blackman–Tukey spectral
 analysis), :func:`etfe` (empirical transfer-function estimate),
+:func:`spafdr` (spectral analysis with frequency-dependent resolution),
 :func:`tfest` (transfer-function estimation, a :class:`TransferFunctionModel`),
 :class:`StepResponse` and :class:`Roots` (the polynomial models'
 ``step_response``, ``poles`` and ``zeros`` with standard deviations).
@@ -88,7 +89,7 @@ from .nonlinear import NARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import iv4, ivx
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
-                        etfe, spa, tfest)
+                        etfe, spa, spafdr, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 from .streaming import RecursiveAR, RecursiveARX, StreamResult
 
@@ -145,6 +146,7 @@ __all__ = [
     "RecursiveARX",
     "RecursiveAR",
     "StreamResult",
+    "spafdr",
 ]
 
 
