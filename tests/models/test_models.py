@@ -407,8 +407,8 @@ def test_public_index():
                 "tfest", "TransferFunctionModel", "StepResponse", "Roots",
                 # issue 33: streaming model objects
                 "RecursiveARX", "RecursiveAR", "StreamResult",
-                # issue 36: frequency-dependent resolution spectral analysis
-                "spafdr"}
+                # issue 36: frequency-dependent resolution spectral analysis, compare
+                "spafdr", "FrequencyCompareResult"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

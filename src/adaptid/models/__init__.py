@@ -88,8 +88,8 @@ from .statespace import StateSpaceModel, era, n4sid, okid
 from .nonlinear import NARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import iv4, ivx
-from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
-                        etfe, spa, spafdr, tfest)
+from .frequency import (FrequencyCompareResult, FrequencyResponse, Roots, StepResponse,
+                        TransferFunctionModel, etfe, spa, spafdr, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 from .streaming import RecursiveAR, RecursiveARX, StreamResult
 
@@ -147,6 +147,7 @@ __all__ = [
     "RecursiveAR",
     "StreamResult",
     "spafdr",
+    "FrequencyCompareResult",
 ]
 
 

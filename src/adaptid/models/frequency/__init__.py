@@ -13,12 +13,15 @@ r"""Frequency-domain models: responses with their uncertainty and nonparametric 
   (MATLAB's ``spafdr``);
 * :func:`tfest` — transfer-function estimation (Levy, Sanathanan–Koerner,
   nonlinear least squares) returning a :class:`TransferFunctionModel`;
+* :class:`FrequencyCompareResult` — :func:`adaptid.models.compare` of models
+  with a measured frequency response (fit per channel, Bode overlay);
 * :class:`StepResponse` and :class:`Roots` — the polynomial models'
   ``step_response()``, ``poles()`` and ``zeros()`` with standard deviations.
 """
 
 from __future__ import annotations
 
+from ._compare import FrequencyCompareResult
 from ._response import FrequencyResponse, default_grid
 from ._roots import Roots
 from ._spafdr import spafdr
@@ -27,4 +30,4 @@ from ._step import StepResponse
 from ._tfest import TransferFunctionModel, tfest
 
 __all__ = ["FrequencyResponse", "spa", "etfe", "default_grid", "StepResponse", "Roots",
-           "tfest", "TransferFunctionModel", "spafdr"]
+           "tfest", "TransferFunctionModel", "spafdr", "FrequencyCompareResult"]
