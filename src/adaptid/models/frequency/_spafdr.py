@@ -110,7 +110,7 @@ def spafdr(data, w=None, resolution=None):
     >>> from scipy.signal import lfilter
     >>> from adaptid.models import spafdr
     >>> u = np.random.default_rng(0).standard_normal(4096)
-    >>> fr = spafdr((lfilter([0, 1.0], [1, -0.5], u), u), w=[0.5, 2.0])
+    >>> fr = spafdr((lfilter([0, 1.0], [1, -0.5], u), u), w=[0.5, 2.0], resolution=0.1)
     >>> bool(np.allclose(fr.response, 1 / (np.exp(1j * fr.w) - 0.5), rtol=0.05))
     True
     """

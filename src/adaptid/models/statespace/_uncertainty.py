@@ -247,7 +247,7 @@ def step_sd(model, T, cov):
         J = np.empty((T, p, d))
         predictor_sensitivity(c(A), c(B), np.zeros((n, p)), c(C), c(D), np.zeros((T, p)), U,
                               np.zeros(n), np.zeros((n, d)), E, J)
-        s[:, :, j] = -E
+        s[:, :, j] = 0.0 - E                   # ŷ = −ε (y = 0), without a −0
         if cov is not None:
             J[:, :, _offsets(n, m, p)[3]:] = 0.0   # the simulation does not depend on K
             # (the recursion's K columns are those of a predictor fed y = 0)
