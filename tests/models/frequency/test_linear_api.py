@@ -7,7 +7,7 @@ from scipy.signal import lfilter
 
 from adaptid.models import (AR, ARMA, ARMAX, ARX, BJ, OE, FrequencyResponse, IDData, Roots,
                             StateSpaceModel, StepResponse, TransferFunctionModel, arx_regul,
-                            impulseest, iv4, n4sid, tfest)
+                            impulseest, iv4, n4sid, okid, tfest)
 
 control = pytest.importorskip("control")
 
@@ -25,7 +25,8 @@ def _models():
             "OE": OE(2, 1, 1).fit(d), "BJ": BJ(2, 1, 1, 1, 1).fit(d), "AR": AR(2).fit(y),
             "ARMA": ARMA(2, 1).fit(y), "arx_regul": arx_regul(d, 1, 2, 1),
             "iv4": iv4(d, 1, 2, 1), "impulseest": impulseest(d, 10),
-            "tfest": tfest(d, 2, 1), "n4sid": n4sid((d.outputs, d.inputs), 2)}
+            "tfest": tfest(d, 2, 1), "n4sid": n4sid((d.outputs, d.inputs), 2),
+            "okid": okid((d.outputs, d.inputs), 2, 8)}
 
 
 def test_every_linear_model_has_responses_with_bands():
