@@ -128,7 +128,8 @@ def roots_with_sd(factors, cov=None, d=None):
 def roots_from_gradients(values, G, cov):
     r"""Roots with standard deviations from their complex gradients G (r, d) and Σ (d, d).
 
-    :math:`\operatorname{var}\operatorname{Re}r = (\operatorname{Re}g)^\top\Sigma\operatorname{Re}g`,
+    :math:`\operatorname{var}\operatorname{Re}r =
+    (\operatorname{Re}g)^\top\Sigma\operatorname{Re}g`,
     likewise for the imaginary part.
     """
     S = np.asarray(cov, dtype=float)

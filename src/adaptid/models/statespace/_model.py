@@ -6,7 +6,7 @@ import numpy as np
 
 from ..._validation import as_float_array, check_int, check_scalar, param_error
 from ._present import StateSpacePresentation
-from ._signals import experiments, input_matrix, recurse
+from ._signals import Experiments, experiments, input_matrix, recurse
 
 __all__ = ["StateSpaceModel"]
 
@@ -145,7 +145,7 @@ class StateSpaceModel(StateSpacePresentation):
         return n_params(self.order, self.n_inputs, self.n_outputs)
 
     def estimate_cov(self, data, *, x0="estimate", feedthrough=None):
-        r"""First-order covariance of θ = [A, B, C, D, K] from the one-step prediction errors on ``data``.
+        r"""Covariance of θ = [A, B, C, D, K] from the one-step prediction errors on ``data``.
 
         The prediction-error covariance of the full parameterisation at this
         model's matrices: with :math:`\psi_k = \partial\varepsilon_k/\partial\theta`
@@ -192,7 +192,7 @@ class StateSpaceModel(StateSpacePresentation):
         from ..._validation import check_choice
         from ._uncertainty import prediction_error_cov
 
-        ex = data if hasattr(data, "lengths") else experiments(data)
+        ex = data if isinstance(data, Experiments) else experiments(data)
         self._check_signals(ex)
         x0 = check_choice(x0, "x0", ("estimate", "zero"))
         if feedthrough is None:
@@ -216,7 +216,7 @@ class StateSpaceModel(StateSpacePresentation):
         r"""Invariant zeros with first-order standard deviations.
 
         The finite generalised eigenvalues z of
-        :math:`\begin{bmatrix}A & B\\ -C & -D\end{bmatrix}v = z\begin{bmatrix}I&0\\0&0\end{bmatrix}v`;
+        :math:`[A, B; -C, -D]\,v = z\,[I, 0; 0, 0]\,v`;
         for a simple zero with right and left eigenvectors v, w,
         :math:`\partial z = w^\mathsf H(\partial F)v/(w^\mathsf HEv)`.
 
@@ -291,7 +291,7 @@ class StateSpaceModel(StateSpacePresentation):
                             dt=self.dt, y_names=self.y_names, u_names=self.u_names)
 
     def freqresp(self, w=None):
-        r"""Frequency response :math:`G(e^{i\omega\,dt}) = C(zI - A)^{-1}B + D` with standard deviations.
+        r"""Frequency response :math:`G(e^{i\omega\,dt}) = C(zI - A)^{-1}B + D` with its sd.
 
         With :math:`R = (zI - A)^{-1}` the derivatives are analytic,
         :math:`\partial G/\partial A_{ij} = (CR)_{:,i}(RB)_{j,:}`,
@@ -331,7 +331,7 @@ class StateSpaceModel(StateSpacePresentation):
                                  u_names=self.u_names)
 
     def rsample(self, n, seed=None):
-        r"""n models with θ = [A, B, C, D, K] drawn from :math:`N(\hat\theta, \Sigma)`: MATLAB's ``rsample``.
+        r"""n models with θ drawn from :math:`N(\hat\theta, \Sigma)`: MATLAB's ``rsample``.
 
         Σ = :attr:`cov` is singular (the similarity directions, a fixed D):
         the draws vary only in the directions it spans. Each model carries

@@ -113,7 +113,8 @@ def prediction_error_cov(model, ex, *, x0="estimate", feedthrough=True):
 
     .. math::
 
-        \operatorname{Cov}\hat\theta \approx \Bigl(\sum_k\tilde\psi_k^\mathsf T\tilde\psi_k\Bigr)^{+}
+        \operatorname{Cov}\hat\theta \approx
+        \Bigl(\sum_k\tilde\psi_k^\mathsf T\tilde\psi_k\Bigr)^{+}
         \quad(= \hat\lambda\,(J^\mathsf TJ)^{+}\text{ for one output})
 
     (Ljung 1999, eq. 9.17 and sec. 9.4), the pseudo-inverse computed as
@@ -257,9 +258,10 @@ def step_sd(model, T, cov):
 
 
 def poles_sd(model, cov):
-    r"""Eigenvalues of A with sd: :math:`\partial\lambda/\partial A_{ij} = \bar w_iv_j/(w^\mathsf Hv)`.
+    r"""Eigenvalues of A with their first-order standard deviations.
 
-    v and w the right and left eigenvectors of the (simple) eigenvalue λ.
+    :math:`\partial\lambda/\partial A_{ij} = \bar w_iv_j/(w^\mathsf Hv)`, v and w
+    the right and left eigenvectors of the (simple) eigenvalue λ.
     """
     A = model.A
     n = A.shape[0]
@@ -303,7 +305,7 @@ def _channel_zeros(A, B, C, D, cov_idx, cov):
 
 
 def zeros_sd(model, cov):
-    """Zeros: the invariant zeros of a square system, else one list per output of per-input Roots."""
+    """Invariant zeros of a square system, else a list per output of per-input Roots."""
     A, B, C, D = model.A, model.B, model.C, model.D
     n, m, p = A.shape[0], B.shape[1], C.shape[0]
     oB, oC, oD, oK = _offsets(n, m, p)
