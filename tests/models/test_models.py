@@ -414,7 +414,9 @@ def test_public_index():
                 # issue 34: MIMO ARX
                 "MIMOARX",
                 # issue 35: streaming NARX
-                "RecursiveNARX"}
+                "RecursiveNARX",
+                # issue 36: frequency-dependent resolution spectral analysis, compare
+                "spafdr", "FrequencyCompareResult"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

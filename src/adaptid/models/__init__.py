@@ -62,6 +62,7 @@ Frequency domain (subpackage :mod:`adaptid.models.frequency`):
 :class:`FrequencyResponse` (Bode with confidence bands; returned by every
 polynomial model's ``freqresp``), :func:`spa` (Blackman–Tukey spectral
 analysis), :func:`etfe` (empirical transfer-function estimate),
+:func:`spafdr` (spectral analysis with frequency-dependent resolution),
 :func:`tfest` (transfer-function estimation, a :class:`TransferFunctionModel`),
 :class:`StepResponse` and :class:`Roots` (the polynomial models'
 ``step_response``, ``poles`` and ``zeros`` with standard deviations).
@@ -100,6 +101,9 @@ from .closedloop import FeedbackResult, checkfeedback, indirect, two_stage
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
                         etfe, spa, tfest)
 from .mimo import MIMOARX
+from .iv import iv4, ivx
+from .frequency import (FrequencyCompareResult, FrequencyResponse, Roots, StepResponse,
+                        TransferFunctionModel, etfe, spa, spafdr, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
 from .streaming import RecursiveAR, RecursiveARX, StreamResult
 
@@ -164,6 +168,8 @@ __all__ = [
     "two_stage",
     "MIMOARX",
     "RecursiveNARX",
+    "spafdr",
+    "FrequencyCompareResult",
 ]
 
 

@@ -104,12 +104,24 @@ def compare(data, *models, k=None, ax=None, names=None):
     in percent (MATLAB's NRMSE definition; 100 is a perfect model, 0 the
     mean of y).
 
+    With a measured :class:`~adaptid.models.FrequencyResponse` as ``data``
+    (from :func:`~adaptid.models.spa`, :func:`~adaptid.models.etfe`,
+    :func:`~adaptid.models.spafdr` or arrays), each model's ``freqresp`` at
+    the data's frequencies is compared with it: the fit is the same NRMSE
+    applied to the complex response over the finite frequencies,
+    :math:`100(1 - \lVert G - \hat G\rVert/\lVert G - \bar G\rVert)`, one per
+    channel, and the result (a
+    :class:`~adaptid.models.frequency.FrequencyCompareResult`) plots the
+    Bode (or Nyquist) diagram of the data with its bands and the models.
+
     Parameters
     ----------
-    data : IDData, (y, u) tuple, DataFrame (output column first) or Series
+    data : IDData, (y, u) tuple, DataFrame (output column first), Series or FrequencyResponse
         The record to compare on (usually the validation part). Arrays may
         also come as two arguments, ``compare(y, u, *models)`` (the one
-        input convention of the models' ``fit``).
+        input convention of the models' ``fit``). A FrequencyResponse
+        compares responses (then ``k`` and ``ax`` must be None; the models
+        need the data's ``dt``).
     *models : fitted models
         Anything with ``simulate(u)`` and ``predict(y, u, k)``.
     k : int, optional
@@ -122,12 +134,13 @@ def compare(data, *models, k=None, ax=None, names=None):
 
     Returns
     -------
-    CompareResult or tuple of CompareResult
+    CompareResult, tuple of CompareResult, or FrequencyCompareResult
         ``fit`` (one value per model), the outputs and ``figure`` when drawn.
         A record with several outputs (MIMO models, whose ``simulate`` and
         ``predict`` return (N, ny)) gives one result per output, in order
         (:func:`adaptid.models.mimo._workflow.compare_outputs`; ``ax`` must
-        then be None).
+        then be None). For frequency-response data: ``fit``, ``responses``
+        and ``plot()``.
 
     Examples
     --------
@@ -143,6 +156,16 @@ def compare(data, *models, k=None, ax=None, names=None):
     >>> bool(res.fit[0] > 90)
     True
     """
+    from .frequency._response import FrequencyResponse
+
+    if isinstance(data, FrequencyResponse):           # issue 36: a Bode comparison
+        from .frequency._compare import compare_frequency
+
+        for name, value in (("k", k), ("ax", ax)):
+            if value is not None:
+                raise param_error(name, "None with frequency-response data "
+                                  "(draw with result.plot(fig=...))", value)
+        return compare_frequency(data, models, names=names)
     data, models = _split_models(data, models)
     if not models:
         raise param_error("models", "at least one fitted model", "<none>", exc=TypeError)

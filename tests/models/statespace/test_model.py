@@ -50,18 +50,18 @@ def test_simulate_equals_loop_and_python_control():
     ref = control.forced_response(sys, U=u.T, X0=x0).outputs.T
     np.testing.assert_allclose(y, ref, atol=1e-10)
     w = np.array([0.1, 1.0, 3.0])
-    np.testing.assert_allclose(model.freqresp(w), np.moveaxis(sys(np.exp(1j * w)), -1, 0),
-                               atol=1e-12)
+    # issue 36: freqresp returns a FrequencyResponse, response (p, m, F) as python-control's
+    np.testing.assert_allclose(model.freqresp(w).response, sys(np.exp(1j * w)), atol=1e-12)
 
 
 def test_responses_and_poles():
     model = StateSpaceModel([[0.5, 0.0], [0.0, -0.25]], [[1.0], [2.0]], [[1.0, 1.0]], [[0.5]])
     mk = model.markov(4)[:, 0, 0]
     np.testing.assert_allclose(mk, [0.5, 3.0, 0.5 - 0.5, 0.25 + 0.125])
-    np.testing.assert_allclose(model.step_response(4)[:, 0, 0], np.cumsum(mk))
+    np.testing.assert_allclose(model.step_response(4).response, np.cumsum(mk))  # (T,): SISO
     np.testing.assert_allclose(np.sort(model.poles().real), [-0.25, 0.5])
     # freqresp at ω = 0 is the DC gain D + C (I − A)⁻¹ B
-    np.testing.assert_allclose(model.freqresp([0.0])[0, 0, 0], 0.5 + 2 + 2 / 1.25)
+    np.testing.assert_allclose(model.freqresp([0.0]).response[0], 0.5 + 2 + 2 / 1.25)
 
 
 def test_estimate_x0_recovers_the_initial_state():

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._validation import as_float_array, check_scalar, param_error
-from ..._lazy import pyplot
+from ..._validation import as_float_array, check_choice, check_scalar, param_error
 
 __all__ = ["FrequencyResponse", "default_grid", "polar_sd"]
 
@@ -139,6 +138,10 @@ class FrequencyResponse:
         """Phase of G in radians, unwrapped along the frequency axis."""
         return np.unwrap(np.angle(self.response), axis=-1)
 
+    def __array__(self, dtype=None, copy=None):
+        """``np.asarray(fr)`` is :attr:`response`."""
+        return self.response if dtype is None else self.response.astype(dtype)
+
     @property
     def is_siso(self):
         """True when ``response`` has shape (nw,)."""
@@ -212,8 +215,13 @@ class FrequencyResponse:
         return (f"FrequencyResponse({len(self.y_names)}×{len(self.u_names)}, "
                 f"{self.w.size} frequencies, dt={self.dt}{sd})")
 
-    def plot(self, sd=3, *, hz=False, fig=None):
-        r"""Bode diagram: magnitude in dB and phase in degrees, with ±sd bands.
+    def plot(self, sd=3, *, kind="bode", hz=False, fig=None):
+        r"""Bode (magnitude in dB, phase in degrees) or Nyquist diagram, with ±sd bands.
+
+        One magnitude–phase pair (Bode) or one panel (Nyquist) per channel,
+        on the ny × nu grid of outputs and inputs, titled ``input → output``;
+        every axis carries its quantity and unit (rad/s or Hz when ``dt`` is
+        known, else per time unit).
 
         Parameters
         ----------
@@ -221,56 +229,27 @@ class FrequencyResponse:
             Width of the confidence bands in standard deviations (default 3,
             MATLAB's ``showConfidence``); 0 draws no bands. The magnitude
             band is :math:`|G| \pm sd\cdot\sigma_{|G|}` (its lower edge
-            clipped just above 0 for the dB scale).
+            clipped just above 0 for the dB scale), the phase band
+            :math:`\arg G \pm sd\cdot\sigma_{\arg G}`; in a Nyquist diagram
+            ellipses with half-axes :math:`sd\cdot\sigma_{|G|}` along G and
+            :math:`sd\cdot|G|\sigma_{\arg G}` across it, at 12 frequencies.
+        kind : {"bode", "nyquist"}
         hz : bool
-            Frequency axis in Hz (``w / 2π``) instead of rad/s.
+            Bode frequency axis in Hz (``w / 2π``) instead of rad/s.
         fig : matplotlib Figure, optional
 
         Returns
         -------
         matplotlib.figure.Figure
         """
-        sd = check_scalar(sd, "sd", low=0.0)
-        plt = pyplot()
-        if fig is None:
-            fig = plt.figure(figsize=(6.5, 5.5), layout="constrained")
-        pairs = self._pairs()
-        axes = fig.subplots(2, len(pairs), squeeze=False, sharex=True)
-        f = self.w / (2 * np.pi) if hz else self.w
-        if self.dt is not None:
-            unit = "Hz" if hz else "rad/s"
-        else:
-            unit = ("cycles" if hz else "rad") + " per time unit"
-        for c, (_, _, name, G, msd, psd) in enumerate(pairs):
-            am, ap = axes[0, c], axes[1, c]
-            mag = np.abs(G)
-            ph = np.degrees(np.unwrap(np.angle(G)))
-            am.semilogx(f, 20 * np.log10(mag), lw=1.2, label="response")
-            ap.semilogx(f, ph, lw=1.2, label="response")
-            if sd > 0 and msd is not None:
-                tiny = np.finfo(float).tiny
-                lo = 20 * np.log10(np.maximum(mag - sd * msd, np.maximum(mag * 1e-6, tiny)))
-                hi = 20 * np.log10(mag + sd * msd)
-                am.fill_between(f, lo, hi, alpha=0.25, lw=0, label=f"±{sd:g} sd")
-            if sd > 0 and psd is not None:
-                ap.fill_between(f, ph - sd * np.degrees(psd), ph + sd * np.degrees(psd),
-                                alpha=0.25, lw=0, label=f"±{sd:g} sd")
-            am.set_title(name, fontsize=9)
-            am.set_ylabel("magnitude (dB)")
-            ap.set_ylabel("phase (deg)")
-            ap.set_xlabel(f"frequency ({unit})")
-            if self.dt is not None:
-                nyq = (0.5 / self.dt) if hz else (np.pi / self.dt)
-                for ax in (am, ap):
-                    ax.axvline(nyq, color="0.6", lw=0.8, ls=":")
-            for ax in (am, ap):
-                ax.grid(True, which="both", lw=0.3)
-        handles, labels = axes[0, 0].get_legend_handles_labels()
-        if len(handles) > 1:      # outside the axes: the legend never covers the curves
-            from matplotlib.layout_engine import ConstrainedLayoutEngine
+        from ._figures import bode, nyquist
 
-            outside = isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
-            fig.legend(handles, labels, loc="outside upper right" if outside else "upper right",
-                       fontsize=8, ncols=len(handles))
-        fig.suptitle("Bode diagram", fontsize=10)
-        return fig
+        sd = check_scalar(sd, "sd", low=0.0)
+        kind = check_choice(kind, "kind", ("bode", "nyquist"))
+        if kind == "nyquist":
+            return nyquist(self, sd, fig=fig)
+        return bode(self, sd, hz=hz, fig=fig)
+
+    def plot_nyquist(self, sd=3, *, fig=None):
+        """Nyquist diagram with ±sd ellipses: ``plot(sd, kind="nyquist")``."""
+        return self.plot(sd, kind="nyquist", fig=fig)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["Roots", "roots_with_sd"]
+__all__ = ["Roots", "roots_with_sd", "roots_from_gradients"]
 
 
 class Roots:
@@ -40,6 +40,21 @@ class Roots:
         self.sd_imag = sd_imag
 
     def __len__(self):
+        return self.values.size
+
+    @property
+    def real(self):
+        """Real parts of the roots (as ``ndarray.real``)."""
+        return self.values.real
+
+    @property
+    def imag(self):
+        """Imaginary parts of the roots (as ``ndarray.imag``)."""
+        return self.values.imag
+
+    @property
+    def size(self):
+        """Number of roots."""
         return self.values.size
 
     def __array__(self, dtype=None, copy=None):
@@ -106,8 +121,18 @@ def roots_with_sd(factors, cov=None, d=None):
     values = np.concatenate(vals) if vals else np.zeros(0, dtype=complex)
     if cov is None:
         return Roots(values)
-    S = np.asarray(cov, dtype=float)
     G = np.concatenate(grads) if grads else np.zeros((0, d), dtype=complex)
+    return roots_from_gradients(values, G, cov)
+
+
+def roots_from_gradients(values, G, cov):
+    r"""Roots with standard deviations from their complex gradients G (r, d) and Σ (d, d).
+
+    :math:`\operatorname{var}\operatorname{Re}r =
+    (\operatorname{Re}g)^\top\Sigma\operatorname{Re}g`,
+    likewise for the imaginary part.
+    """
+    S = np.asarray(cov, dtype=float)
     with np.errstate(invalid="ignore"):
         vr = np.einsum("ri,ij,rj->r", G.real, S, G.real)
         vi = np.einsum("ri,ij,rj->r", G.imag, S, G.imag)

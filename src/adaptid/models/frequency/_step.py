@@ -109,6 +109,10 @@ class StepResponse:
         self.y_names, self.u_names = tuple(y_names), tuple(u_names)
         self.time_unit = time_unit
 
+    def __array__(self, dtype=None, copy=None):
+        """``np.asarray(sr)`` is :attr:`response`."""
+        return self.response if dtype is None else self.response.astype(dtype)
+
     def _pairs(self):
         R = self.response.reshape(len(self.y_names), len(self.u_names), -1)
         S = None if self.sd is None else self.sd.reshape(R.shape)
@@ -149,23 +153,24 @@ class StepResponse:
         Returns
         -------
         matplotlib.figure.Figure
-            One panel per channel, titled ``input → output``, the time axis
-            in ``time_unit``.
+            One panel per channel on the ny × nu grid, titled
+            ``input → output``, the time axis in ``time_unit``, the output
+            axis named after the output.
         """
         sd = check_scalar(sd, "sd", low=0.0)
         plt = pyplot()
         if fig is None:
             fig = plt.figure(figsize=(6.5, 3.5), layout="constrained")
-        pairs = self._pairs()
-        axes = fig.subplots(1, len(pairs), squeeze=False)[0]
-        for ax, (_, _, name, r, s) in zip(axes, pairs):
+        axes = fig.subplots(len(self.y_names), len(self.u_names), squeeze=False)
+        for i, j, name, r, s in self._pairs():
+            ax = axes[i, j]
             ax.step(self.t, r, where="post", lw=1.2, label="step response")
             if sd > 0 and s is not None:
                 ax.fill_between(self.t, r - sd * s, r + sd * s, step="post", alpha=0.25, lw=0,
                                 label=f"±{sd:g} sd")
             ax.set_title(name, fontsize=9)
             ax.set_xlabel(f"time ({self.time_unit})")
-            ax.set_ylabel(self.y_names[0] if len(self.y_names) == 1 else "output")
+            ax.set_ylabel(self.y_names[i])
             ax.grid(True, lw=0.3)
             ax.legend(fontsize=8)
         fig.suptitle("Step response", fontsize=10)

@@ -129,12 +129,47 @@ class TransferFunctionModel:
                                  y_names=self.y_name, u_names=self.u_name)
 
     def poles(self):
-        """Poles (roots of the denominator in s or z)."""
-        return np.roots(self.den)
+        """Poles (roots of the denominator in s or z) with first-order sd: :class:`Roots`."""
+        from ._tfresp import tf_poles
+
+        return tf_poles(self)
 
     def zeros(self):
-        """Finite zeros (roots of the numerator in s or z)."""
-        return np.roots(np.trim_zeros(self.b[::-1] if self.dt is None else self.b, "f"))
+        """Finite zeros (roots of the numerator in s or z) with first-order sd: :class:`Roots`."""
+        from ._tfresp import tf_zeros
+
+        return tf_zeros(self)
+
+    def step_response(self, T=None):
+        r"""Step response with its first-order standard deviation (from ``cov``).
+
+        Discrete: T samples (default ten slowest time constants, within
+        [20, 2000]); continuous: T points (default 200) from 0 to ten
+        slowest time constants plus the delay, each exact (matrix
+        exponential). The Jacobian columns are the step responses of
+        :math:`\partial G/\partial\theta` (see :mod:`._tfresp`).
+
+        Returns
+        -------
+        StepResponse
+        """
+        from ._tfresp import tf_step
+
+        return tf_step(self, T)
+
+    def rsample(self, n, seed=None):
+        """n models with θ drawn from N(θ̂, ``cov``): MATLAB's ``rsample``.
+
+        Returns
+        -------
+        list of TransferFunctionModel
+        """
+        from ._tfresp import tf_rsample
+
+        n = check_int(n, "n", low=1)
+        if self.cov is None:
+            raise param_error("self", "a model with a parameter covariance (cov)", "<cov None>")
+        return tf_rsample(self, n, seed)
 
     def to_control(self, pade_order=None):
         """The model as a python-control ``TransferFunction``.

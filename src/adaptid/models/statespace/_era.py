@@ -202,7 +202,7 @@ def okid(data, order, n_markov, *, feedthrough=False):
     K = sla.lstsq(Ob, Yo[1:r + 1].reshape(r * p, p), check_finite=False)[0]
     model = StateSpaceModel(A, B, C, D, K, noise_cov=E.T @ E / E.shape[0], dt=ex.dt,
                             y_names=ex.y_names, u_names=ex.u_names, singular_values=sv,
-                            info={"method": "okid", "n_markov": q,
+                            info={"method": "okid", "n_markov": q, "feedthrough": bool(feedthrough),
                                   "samples": sum(ex.lengths), "experiments": len(ex.Y)})
     model._fit_data = ex
     return model

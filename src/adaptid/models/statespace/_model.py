@@ -6,7 +6,7 @@ import numpy as np
 
 from ..._validation import as_float_array, check_int, check_scalar, param_error
 from ._present import StateSpacePresentation
-from ._signals import experiments, input_matrix, recurse
+from ._signals import Experiments, experiments, input_matrix, recurse
 
 __all__ = ["StateSpaceModel"]
 
@@ -50,6 +50,9 @@ class StateSpaceModel(StateSpacePresentation):
     y_names, u_names : sequence of str, optional
     singular_values : array_like, optional
         The singular values the order was read from (subspace methods, ERA).
+    cov : array_like, shape (d, d), optional
+        Covariance of θ = [A, B, C, D, K] (each matrix row by row,
+        d = n² + nm + pn + pm + np); see :meth:`estimate_cov`.
 
     Attributes
     ----------
@@ -69,12 +72,12 @@ class StateSpaceModel(StateSpacePresentation):
     >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]])
     >>> m.markov(3)[:, 0, 0]      # D, CB, CAB
     array([0. , 1. , 0.5])
-    >>> m.step_response(3)[:, 0, 0]
+    >>> m.step_response(3).response
     array([0. , 1. , 1.5])
     """
 
     def __init__(self, A, B, C, D=None, K=None, *, noise_cov=None, dt=1.0, y_names=None,
-                 u_names=None, singular_values=None, info=None):
+                 u_names=None, singular_values=None, info=None, cov=None):
         A = np.atleast_2d(as_float_array(A, "A", ndim=(0, 1, 2)))
         n = A.shape[0]
         if A.shape != (n, n):
@@ -99,6 +102,8 @@ class StateSpaceModel(StateSpacePresentation):
                                 else np.asarray(singular_values, dtype=np.float64))
         self.info = dict(info or {})
         self._fit_data = None  # Experiments the model was estimated from (for summary)
+        self._cov_tried = False   # cov computed from _fit_data once, on first use
+        self.cov = cov
 
     # ---------------------------------------------------------------- sizes
     @property
@@ -115,9 +120,115 @@ class StateSpaceModel(StateSpacePresentation):
         return self.C.shape[0]
 
     # ----------------------------------------------------------- responses
+    @property
+    def cov(self):
+        r"""Covariance of θ = [A, B, C, D, K] (each row by row), shape (d, d), or None.
+
+        Models from :func:`~adaptid.models.n4sid` and :func:`~adaptid.models.okid`
+        compute it on first use from their estimation data
+        (:meth:`estimate_cov`, the predictor's initial state estimated);
+        a model built from matrices has none unless ``cov`` was given.
+        """
+        if self._cov is None and self._fit_data is not None and not self._cov_tried:
+            self._cov_tried = True
+            self._cov = self.estimate_cov(self._fit_data)
+        return self._cov
+
+    @cov.setter
+    def cov(self, value):
+        self._cov = None if value is None else _matrix(value, "cov", (self._d, self._d))
+
+    @property
+    def _d(self):
+        from ._uncertainty import n_params
+
+        return n_params(self.order, self.n_inputs, self.n_outputs)
+
+    def estimate_cov(self, data, *, x0="estimate", feedthrough=None):
+        r"""Covariance of θ = [A, B, C, D, K] from the one-step prediction errors on ``data``.
+
+        The prediction-error covariance of the full parameterisation at this
+        model's matrices: with :math:`\psi_k = \partial\varepsilon_k/\partial\theta`
+        (exact sensitivities of the Kalman predictor, one compiled recursion)
+        and :math:`\hat\Lambda = \frac1N\sum\varepsilon_k\varepsilon_k^\mathsf T`,
+
+        .. math::
+
+            \operatorname{Cov}\hat\theta \approx
+            \Bigl(\sum_k\psi_k^\mathsf T\hat\Lambda^{-1}\psi_k\Bigr)^{+}
+            \qquad(\hat\lambda\,(J^\mathsf TJ)^{+}\text{ for one output}),
+
+        Ljung (1999), eq. 9.17 and sec. 9.4. The full parameterisation is
+        over-parameterised (similarity transformations leave the predictor
+        unchanged), so the Moore–Penrose pseudo-inverse is used: its null
+        space holds the n² similarity directions, along which G, the step
+        response and the poles do not change, so their propagated standard
+        deviations are well defined (Ljung 1999, sec. 9.4, remark on
+        over-parameterised models; McKelvey & Helmersson 1997, on full
+        parameterisations). The predictor's initial state of each experiment
+        is a nuisance parameter (least squares) unless ``x0="zero"``.
+
+        Parameters
+        ----------
+        data : IDData, (y, u) tuple, or a list of them
+        x0 : {"estimate", "zero"}
+        feedthrough : bool, optional
+            Whether D is free (default: as estimated, ``info["feedthrough"]``,
+            else whether D is non-zero).
+
+        Returns
+        -------
+        ndarray, shape (d, d)
+            d = n² + nm + pn + pm + np; zero rows and columns for a fixed D.
+
+        References
+        ----------
+        L. Ljung (1999). *System Identification: Theory for the User*, 2nd ed.
+        Prentice Hall. Sec. 9.4.
+        T. McKelvey, A. Helmersson (1997). System identification using an
+        over-parametrized model class — improving the optimization algorithm.
+        *Proc. 36th IEEE CDC*, 2984–2989. :doi:`10.1109/CDC.1997.657907`.
+        """
+        from ..._validation import check_choice
+        from ._uncertainty import prediction_error_cov
+
+        ex = data if isinstance(data, Experiments) else experiments(data)
+        self._check_signals(ex)
+        x0 = check_choice(x0, "x0", ("estimate", "zero"))
+        if feedthrough is None:
+            feedthrough = bool(self.info.get("feedthrough", np.any(self.D != 0)))
+        cov, _ = prediction_error_cov(self, ex, x0=x0, feedthrough=bool(feedthrough))
+        return cov
+
     def poles(self):
-        """Eigenvalues of A, shape (n,)."""
-        return np.linalg.eigvals(self.A)
+        r"""Eigenvalues of A with first-order standard deviations (:class:`~adaptid.models.Roots`).
+
+        For a simple eigenvalue λ with right and left eigenvectors v, w:
+        :math:`\partial\lambda/\partial A_{ij} = \bar w_iv_j/(w^\mathsf Hv)`
+        (no standard deviations without :attr:`cov`). ``Roots`` converts to an
+        array (``np.asarray(model.poles())``) and has ``.real``/``.imag``.
+        """
+        from ._uncertainty import poles_sd
+
+        return poles_sd(self, self.cov)
+
+    def zeros(self):
+        r"""Invariant zeros with first-order standard deviations.
+
+        The finite generalised eigenvalues z of
+        :math:`[A, B; -C, -D]\,v = z\,[I, 0; 0, 0]\,v`;
+        for a simple zero with right and left eigenvectors v, w,
+        :math:`\partial z = w^\mathsf H(\partial F)v/(w^\mathsf HEv)`.
+
+        Returns
+        -------
+        Roots or list of lists of Roots
+            One ``Roots`` for a square system (p = m), else ``[output][input]``
+            the zeros of each channel.
+        """
+        from ._uncertainty import zeros_sd
+
+        return zeros_sd(self, self.cov)
 
     def markov(self, n):
         r"""Markov parameters (impulse response) :math:`D, CB, CAB, \dots, CA^{n-2}B`.
@@ -141,29 +252,117 @@ class StateSpaceModel(StateSpacePresentation):
             CA = CA @ self.A
         return out
 
-    def step_response(self, n):
-        """Step response at samples 0 … n − 1, shape (n, p, m) (cumulated Markov parameters)."""
-        return np.cumsum(self.markov(n), axis=0)
+    def _layout(self, X):
+        """(T, p, m) or (F, p, m) → (T,) for one input and output, else (p, m, T)."""
+        if X is None:
+            return None
+        return X[:, 0, 0] if X.shape[1:] == (1, 1) else np.moveaxis(X, 0, -1)
 
-    def freqresp(self, w):
-        r"""Frequency response :math:`G(e^{i\omega\,dt}) = C(zI - A)^{-1}B + D`.
+    def step_response(self, T=None):
+        r"""Step response with its standard deviation per sample (from :attr:`cov`).
+
+        The output at samples 0 … T − 1 after a unit step on each input at
+        sample 0 from a zero state (the cumulated Markov parameters); the
+        standard deviation is the first-order propagation of :attr:`cov`
+        with the exact sensitivities of the simulation (similarity invariant).
 
         Parameters
         ----------
-        w : array_like, shape (F,)
-            Angular frequencies in rad per time unit of ``dt`` (as MATLAB's
-            ``freqresp`` and python-control); ``w·dt = π`` is the Nyquist frequency.
+        T : int, optional
+            Number of samples; default ten times the slowest time constant
+            :math:`-1/\ln\max|\lambda(A)|` within [20, 2000] (2000 for a pole
+            on or outside the unit circle).
 
         Returns
         -------
-        ndarray of complex, shape (F, p, m)
+        StepResponse
+            ``response`` and ``sd`` of shape (T,) for one input and output,
+            (p, m, T) otherwise.
         """
+        from ..frequency._step import StepResponse, check_length, default_length
+        from ._uncertainty import step_sd
+
+        if T is None:
+            T = default_length([1.0], np.poly(self.A) if self.order else [1.0])
+        else:
+            T = check_length(T)
+        s, sd = step_sd(self, T, self.cov)
+        return StepResponse(np.arange(T) * self.dt, self._layout(s), self._layout(sd),
+                            dt=self.dt, y_names=self.y_names, u_names=self.u_names)
+
+    def freqresp(self, w=None):
+        r"""Frequency response :math:`G(e^{i\omega\,dt}) = C(zI - A)^{-1}B + D` with its sd.
+
+        With :math:`R = (zI - A)^{-1}` the derivatives are analytic,
+        :math:`\partial G/\partial A_{ij} = (CR)_{:,i}(RB)_{j,:}`,
+        :math:`\partial G/\partial B_{ij} = (CR)_{:,i}e_j^\mathsf T`,
+        :math:`\partial G/\partial C_{ij} = e_i(RB)_{j,:}`,
+        :math:`\partial G/\partial D_{ij} = e_ie_j^\mathsf T`; the
+        covariance of (Re G, Im G) is :math:`J\Sigma J^\mathsf T` (Σ = :attr:`cov`)
+        and the standard deviations of :math:`|G|` and :math:`\arg G` follow
+        by the delta method (MATLAB's convention, see
+        :meth:`adaptid.models.ARX.freqresp`). G is similarity invariant, so
+        the null directions of the pseudo-inverse Σ do not enter.
+
+        Parameters
+        ----------
+        w : array_like, shape (F,), optional
+            Angular frequencies in rad per time unit of ``dt`` (as MATLAB's
+            ``freqresp`` and python-control); ``w·dt = π`` is the Nyquist
+            frequency. Default MATLAB's 128 points
+            :math:`\frac{k}{128}\frac{\pi}{dt}`, k = 1 … 128.
+
+        Returns
+        -------
+        FrequencyResponse
+            ``response`` of shape (F,) for one input and output, else
+            (p, m, F); ``magnitude_sd``/``phase_sd`` when :attr:`cov` is known.
+            ``np.asarray(fr)`` is ``fr.response``.
+        """
+        from ..frequency._response import FrequencyResponse, default_grid
+        from ._uncertainty import freqresp_sd
+
+        if w is None:
+            w = default_grid(self.dt)
         w = as_float_array(w, "w", ndim=(0, 1)).reshape(-1)
-        z = np.exp(1j * w * self.dt)
-        n = self.order
-        M = z[:, None, None] * np.eye(n) - self.A  # (F, n, n)
-        X = np.linalg.solve(M, np.broadcast_to(self.B.astype(complex), (w.size, n, self.n_inputs)))
-        return self.C @ X + self.D
+        G, msd, psd = freqresp_sd(self, w, self.cov)
+        return FrequencyResponse(w, self._layout(G), self.dt, magnitude_sd=self._layout(msd),
+                                 phase_sd=self._layout(psd), y_names=self.y_names,
+                                 u_names=self.u_names)
+
+    def rsample(self, n, seed=None):
+        r"""n models with θ drawn from :math:`N(\hat\theta, \Sigma)`: MATLAB's ``rsample``.
+
+        Σ = :attr:`cov` is singular (the similarity directions, a fixed D):
+        the draws vary only in the directions it spans. Each model carries
+        this model's ``cov``, ``noise_cov``, names and ``info``.
+
+        Parameters
+        ----------
+        n : int
+            Number of models, ``>= 1``.
+        seed : int or numpy.random.Generator, optional
+
+        Returns
+        -------
+        list of StateSpaceModel
+        """
+        from ._uncertainty import pack, unpack
+
+        n = check_int(n, "n", low=1)
+        cov = self.cov
+        if cov is None:
+            raise param_error("self", "a model with a parameter covariance (cov)", "<cov None>")
+        rng = np.random.default_rng(seed)
+        theta = pack(self.A, self.B, self.C, self.D, self.K)
+        out = []
+        for th in rng.multivariate_normal(theta, cov, size=n, method="eigh"):
+            A, B, C, D, K = unpack(th, self.order, self.n_inputs, self.n_outputs)
+            mdl = StateSpaceModel(A, B, C, D, K, noise_cov=self.noise_cov, dt=self.dt,
+                                  y_names=self.y_names, u_names=self.u_names, info=self.info,
+                                  cov=cov)
+            out.append(mdl)
+        return out
 
     # ---------------------------------------------------------- simulation
     def _x0(self, x0):

@@ -114,7 +114,7 @@ class StateSpacePresentation:
             if key in info:
                 stats[key] = info[key]
         stats.update(self._fit_stats())
-        poles = self.poles()
+        poles = np.linalg.eigvals(self.A)   # (with standard deviations: self.poles())
         mats = [("A", self.A, xs, xs), ("B", self.B, xs, us), ("C", self.C, ys, xs),
                 ("D", self.D, ys, us), ("K", self.K, xs, ys), ("noise_cov", self.noise_cov, ys, ys),
                 ("poles", np.column_stack([poles.real, poles.imag, np.abs(poles)]),
@@ -150,7 +150,8 @@ class StateSpacePresentation:
         return pd.DataFrame(rows, columns=["matrix", "row", "column", "value"])
 
     def plot(self, fig=None, *, n=None):
-        """Singular values (the order marked) when the model has them, else the step response.
+        """Singular values (the order marked) when the model has them, else the step response
+        (:meth:`StepResponse.plot`, with bands when the model has a covariance).
 
         Parameters
         ----------
@@ -175,12 +176,5 @@ class StateSpacePresentation:
             ax.set_ylabel("singular value")
             ax.set_title(f"{self.info.get('method', 'singular values')}: order {self.order}")
             return fig
-        steps = self.step_response(50 if n is None else n)
-        t = self.dt * np.arange(steps.shape[0])
-        axes = fig.subplots(self.n_outputs, self.n_inputs, squeeze=False, sharex=True)
-        for i, yn in enumerate(self.y_names):
-            for j, un in enumerate(self.u_names):
-                axes[i, j].step(t, steps[:, i, j], where="post", lw=0.9)
-                axes[i, j].set_title(f"{un} → {yn}", fontsize=9)
-        fig.suptitle("step response")
-        return fig
+        sr = self.step_response(50 if n is None else n)
+        return sr.plot(fig=fig)

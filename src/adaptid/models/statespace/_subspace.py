@@ -361,7 +361,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     Ob, W1inv, Z = _weighted(_blocks(L, m, p, i), method)
     U1, sv, _ = sla.svd(Ob, full_matrices=False, check_finite=False)
     info = {"method": method, "horizon": i, "samples": sum(ex.lengths),
-            "experiments": len(ex.Y)}
+            "experiments": len(ex.Y), "feedthrough": bool(feedthrough)}
     if orders is None:
         orders = [_gap_order(sv, n_max)]
         info["order rule"] = "largest drop of log singular values"
