@@ -88,7 +88,8 @@ _DEFINED_IN = {"RLS": "adaptid.estimators", "SlidingWindowRLS": "adaptid.estimat
                "KalmanRLS": "adaptid.estimators", "LMS": "adaptid.estimators",
                "NLMS": "adaptid.estimators", "ConstrainedRLS": "adaptid.constrained",
                "RecursiveARX": "adaptid.models.streaming",
-               "RecursiveAR": "adaptid.models.streaming"}
+               "RecursiveAR": "adaptid.models.streaming",
+               "FastRLS": "adaptid.estimators"}
 
 
 def register_state_class(name: str, cls) -> None:
@@ -104,7 +105,8 @@ def _lookup(name):
 
 
 def _classes():
-    return {k: _lookup(k) for k in ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS")}
+    return {k: _lookup(k) for k in ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS",
+                                    "FastRLS")}
 
 
 def estimator_from_state(state: dict):

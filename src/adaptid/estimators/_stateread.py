@@ -53,7 +53,7 @@ MAX_HEADER_BYTES = 2 ** 20
 MAX_MEMBERS = 16
 #: Room for a ``.npy`` preamble (magic, version, dict) in front of the data.
 _NPY_PREAMBLE_MAX = 4096
-CORE_KINDS = ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS")
+CORE_KINDS = ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS", "FastRLS")
 #: gradient estimators: the state is θ alone, no P0 (no covariance)
 GRADIENT_KINDS = ("LMS", "NLMS")
 
@@ -205,6 +205,10 @@ def core_layout(path, header, kind):
         refuse(path, f"header field 'options' must be an object, got {type(opts).__name__}")
     if kind in GRADIENT_KINDS:
         return {"theta0": (n, p), "state": (n * p,) if batch is None else (batch, n * p)}
+    if kind == "FastRLS":  # the delay-line filter: its own layout (estimators/_fastrls.py)
+        from ._fastrls import state_length
+        L = state_length(opts.get("method"), n)
+        return {"theta0": (n, 1), "state": (L,) if batch is None else (batch, L)}
     L = n * p + n * n + n
     if kind == "SlidingWindowRLS":
         M = _int(path, opts, "window", n, MAX_WINDOW)
@@ -267,7 +271,7 @@ def check_content(path, kind, header, arrays):
         if name in arrays and not np.all(np.isfinite(arrays[name])):
             refuse(path, f"array {name!r} holds NaN or inf")
     S = arrays["state"].reshape(-1, arrays["state"].shape[-1])
-    if kind in GRADIENT_KINDS or (kind == "RLS" and header["options"].get("form", "ud") != "ud"):
+    if kind in GRADIENT_KINDS + ("FastRLS",) or (kind == "RLS" and header["options"].get("form", "ud") != "ud"):
         ok = np.all(np.isfinite(S), axis=1)  # θ and S (P = S Sᵀ) or P: any finite values
     else:
         ok = _factor_ok(S, 0, n, p)

@@ -53,25 +53,6 @@ from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 
 
 @njit(**NJIT_INLINE)
-def _rescue(S, n, lam, delta):
-    """Re-initialise the predictors at the soft start; θ and the delay line stay.
-
-    Energies: α = max(δ, mean of the line's squares), β = α λ⁻ⁿ; w_f = w_b = 0,
-    kt = 0, γ = 1 (Cioffi & Kailath 1984, sect. V).
-    """
-    p = 0.0
-    for i in range(n):
-        S[n + i] = 0.0
-        S[2 * n + i] = 0.0
-        S[3 * n + i] = 0.0
-        p += S[4 * n + i] * S[4 * n + i]
-    a = max(delta, p / n)
-    S[5 * n] = a
-    S[5 * n + 1] = a * lam ** (-n)
-    S[5 * n + 2] = 1.0
-
-
-@njit(**NJIT_INLINE)
 def _predictors(S, n, uk, q, opt):
     """Order-n forward/backward update with u_k; shifts u_k into the line.
 
@@ -119,6 +100,33 @@ def _predictors(S, n, uk, q, opt):
 
 
 @njit(**NJIT)
+def _rescue(S, n, opt, q, keep):
+    """Restart the predictors at the soft start n samples ago; θ stays.
+
+    The delay line φ_k is kept aside, the predictors set to the soft start of
+    a zero line (w_f = w_b = 0, kt = 0, γ = 1, α = max(δ, mean square of φ_k),
+    β = αλ⁻ⁿ) and the n inputs of φ_k fed again, oldest first: the predictors,
+    the gain and γ are then those of exact least squares on these n inputs
+    (prewindowed before them), consistent with the line, in O(n²) once
+    (Cioffi & Kailath 1984, sect. V, restart with the stored data).
+    """
+    p = 0.0
+    for i in range(n):
+        keep[i] = S[4 * n + i]
+        p += keep[i] * keep[i]
+        S[n + i] = 0.0
+        S[2 * n + i] = 0.0
+        S[3 * n + i] = 0.0
+        S[4 * n + i] = 0.0
+    a = max(opt[1], p / n)
+    S[5 * n] = a
+    S[5 * n + 1] = a * opt[0] ** (-n)
+    S[5 * n + 2] = 1.0
+    for i in range(n - 1, -1, -1):
+        _predictors(S, n, keep[i], q, opt)
+
+
+@njit(**NJIT)
 def ftf_run(S, u, y, opt, Th, E, skipped):
     """Run the stabilised FTF over u, y (length N) from state S (updated in place).
 
@@ -128,6 +136,7 @@ def ftf_run(S, u, y, opt, Th, E, skipped):
     """
     n = (S.shape[0] - 3) // 5
     q = np.empty(n + 1)
+    keep = np.empty(n)
     rescues = 0
     store = Th.shape[0] > 0
     x = 4 * n
@@ -139,7 +148,7 @@ def ftf_run(S, u, y, opt, Th, E, skipped):
         else:
             skipped[k] = False
             if not _predictors(S, n, uk, q, opt):
-                _rescue(S, n, opt[0], opt[1])
+                _rescue(S, n, opt, q, keep)
                 rescues += 1
             e = yk
             for i in range(n):
