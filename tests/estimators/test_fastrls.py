@@ -14,7 +14,7 @@ import pytest
 import adaptid
 from adaptid import FastRLS, RLS, StateFileError
 
-METHODS = ["ftf"]
+METHODS = ["ftf", "lattice"]
 
 
 def delay_rows(u, n):
@@ -105,11 +105,12 @@ def test_update_run_run_fir_chunks_and_batched_agree_bit_for_bit(method):
         B.update(Phi[0], 1.0)
 
 
-def test_state_files_and_pickle_resume_exactly(tmp_path):
+@pytest.mark.parametrize("method", METHODS)
+def test_state_files_and_pickle_resume_exactly(tmp_path, method):
     rng = np.random.default_rng(9)
     n, N = 7, 200
     u, y, _ = record(rng, n, N)
-    kw = dict(forgetting=0.995, delta=0.02)
+    kw = dict(forgetting=0.995, delta=0.02, method=method)
     whole = FastRLS(n, **kw).run_fir(u, y)
     est = FastRLS(n, **kw)
     est.run_fir(u[:80], y[:80])
@@ -122,7 +123,8 @@ def test_state_files_and_pickle_resume_exactly(tmp_path):
     with pytest.raises(StateFileError, match="not a FastRLS"):
         FastRLS.load_state(tmp_path / "r.npz")
     bad = est.get_state()
-    bad["state"][5 * n] = -1.0  # a negative forward energy: no FastRLS holds it
+    # a negative forward energy (its square root for the lattice): no FastRLS holds it
+    bad["state"][5 * n if method == "ftf" else 7 * n + 1] = -1.0
     with pytest.raises(ValueError, match="energies"):
         FastRLS.from_state(bad)
 
@@ -200,3 +202,19 @@ def test_rescue_is_counted_after_a_corrupted_state():
     t = est.run_fir(u[100:], y[100:])
     assert est.n_rescues >= 1 and t.meta["n_rescues"] == est.n_rescues
     np.testing.assert_allclose(est.theta, h, atol=1e-8)
+
+
+def test_lattice_without_theta_track_gives_the_same_errors():
+    rng = np.random.default_rng(12)
+    n, N = 9, 300
+    u, y, _ = record(rng, n, N)
+    kw = dict(forgetting=0.99, delta=0.1, method="lattice")
+    full = FastRLS(n, **kw).run_fir(u, y)
+    est = FastRLS(n, track_theta=False, **kw)
+    t = est.run_fir(u, y)
+    assert np.array_equal(t.error, full.error) and t.theta.shape == (0, n)
+    assert est.get_state()["state"].shape == (7 * n + 3,)  # O(n) state, no R
+    with pytest.raises(ValueError, match="track_theta"):
+        est.theta
+    ftf = FastRLS(n, forgetting=0.99, delta=0.1).run_fir(u, y)
+    assert rel(t.error, ftf.error) < 1e-9

@@ -58,6 +58,19 @@ class FastRLS:
     *rescue* re-initialises the predictors at the soft start (energy the
     mean square of the delay line, at least δ), keeping θ; ``n_rescues``
     counts them, and θ is then no longer the exact minimiser above.
+
+    ``method="lattice"`` is the QR-decomposition least-squares lattice
+    (Regalia & Bellanger 1991; Proudler, McWhirter & Shepherd 1988; the
+    algorithm of SLICOT FD01AD, whose published example it reproduces):
+    Givens rotations only, numerically robust for λ < 1, O(n) per sample for
+    the a-priori errors. It holds the parameters of the equivalent normalised
+    lattice, not θ; with ``track_theta=True`` (the default) θ is read after
+    every sample from the square-root information array of the same problem,
+    updated by Givens rotations and solved by back substitution
+    (:math:`R_k\theta_k = z_k`, McWhirter 1983), which costs O(n²) per
+    sample. ``track_theta=False`` keeps the lattice O(n) and gives the
+    a-priori errors only (``theta`` then raises). The lattice has no rescue.
+
     The recursions are in :mod:`adaptid._kernels.recursions._fastrls`.
 
     Parameters
@@ -76,6 +89,9 @@ class FastRLS:
         shifted into the delay line and the state is untouched.
     theta0 : array_like, shape (n,), optional
         The prior mean θ₀ (zeros by default).
+    track_theta : bool
+        Lattice only: keep θ (O(n²) per sample) or not (O(n), errors only).
+        The FTF always holds θ.
 
     Attributes
     ----------
@@ -95,6 +111,12 @@ class FastRLS:
     Signal Process. 39(1), 92-114, 1991. doi:10.1109/78.80769.
     J. M. Cioffi and T. Kailath, "Fast, recursive-least-squares transversal
     filters for adaptive filtering", IEEE Trans. ASSP 32(2), 304-337, 1984.
+    P. A. Regalia and M. G. Bellanger, "On the duality between fast QR
+    methods and lattice methods in least squares adaptive filtering", IEEE
+    Trans. Signal Process. 39(4), 879-891, 1991.
+    J. G. McWhirter, "Recursive least-squares minimization using a systolic
+    array", Proc. SPIE 431, 105-112, 1983.
+    SLICOT FD01AD (P. A. Regalia, 1994), https://github.com/SLICOT/SLICOT-Reference.
 
     Examples
     --------
@@ -110,10 +132,11 @@ class FastRLS:
     """
 
     spec = types.SimpleNamespace(method="fastrls", covariance=False,
-                                 options=("forgetting", "delta", "method", "nan_policy"))
+                                 options=("forgetting", "delta", "method", "nan_policy",
+                                          "track_theta"))
 
     def __init__(self, n_taps, *, forgetting=1.0, delta=1e-4, method="ftf",
-                 nan_policy="raise", theta0=None):
+                 nan_policy="raise", theta0=None, track_theta=True):
         self.n_taps = check_int(n_taps, "n_taps", low=1)
         self.forgetting = check_scalar(forgetting, "forgetting", low=0.0, high=1.0,
                                        low_open=True)
@@ -123,6 +146,9 @@ class FastRLS:
                               f"n={self.n_taps})", delta)
         self.method = check_choice(method, "method", METHODS)
         self.nan_policy = check_choice(nan_policy, "nan_policy", NAN_POLICIES)
+        if not isinstance(track_theta, (bool, np.bool_)):
+            raise param_error("track_theta", "True or False", track_theta, exc=TypeError)
+        self.track_theta = bool(track_theta) or self.method == "ftf"
         n = self.n_taps
         self.theta0 = (np.zeros(n) if theta0 is None
                        else as_float_array(theta0, "theta0", shape=(n,), copy=True))
@@ -135,15 +161,22 @@ class FastRLS:
         return self.n_taps
 
     def _length(self) -> int:
-        return _layout(self.method, self.n_taps)[0]
+        return _layout(self.method, self.n_taps, self.track_theta)
 
     def _initial_state(self) -> np.ndarray:
-        n, lam = self.n_taps, self.forgetting
+        n, lam, d = self.n_taps, self.forgetting, self.delta
         S = np.zeros(self._length())
         S[:n] = self.theta0
-        S[5 * n] = self.delta
-        S[5 * n + 1] = self.delta * lam ** (-n)
-        S[5 * n + 2] = 1.0
+        if self.method == "ftf":
+            S[5 * n: 5 * n + 3] = d, d * lam ** (-n), 1.0
+            return S
+        S[3 * n] = 1.0                      # sqrt of the conversion factor
+        S[3 * n + 1: 4 * n + 1] = 1.0       # cosines
+        S[7 * n + 1] = np.sqrt(d)           # sqrt of the forward energy
+        if self.track_theta:                # R0 = diag(sqrt(δ λ^-i)), z0 = R0 θ0
+            r0 = np.sqrt(d * lam ** (-np.arange(n, dtype=np.float64)))
+            S[7 * n + 2: 7 * n + 2 + n * n] = np.diag(r0).ravel()
+            S[7 * n + 2 + n * n:] = r0 * self.theta0
         return S
 
     def reset(self):
@@ -156,18 +189,26 @@ class FastRLS:
 
     @property
     def theta(self) -> np.ndarray:
+        if not self.track_theta:
+            raise ValueError("theta is not tracked: this lattice was made with "
+                             "track_theta=False (a-priori errors only)")
         return self._S[..., : self.n_taps].copy()
 
     @property
     def delay_line(self) -> np.ndarray:
-        n = self.n_taps
-        return self._S[..., 4 * n: 5 * n].copy()
+        at = self._line_at()
+        return self._S[..., at: at + self.n_taps].copy()
+
+    def _line_at(self) -> int:
+        return 4 * self.n_taps if self.method == "ftf" else 6 * self.n_taps + 1
 
     @property
     def n_rescues(self):
         return self._rescues.copy() if self._batch is not None else int(self._rescues)
 
     def _opt(self) -> np.ndarray:
+        if self.method == "lattice":
+            return np.array([self.forgetting, self.delta, float(self.track_theta)])
         return np.array([self.forgetting, self.delta, *FEEDBACK, 1.0, GAMMA_TOL])
 
     def copy(self) -> "FastRLS":
@@ -273,7 +314,8 @@ class FastRLS:
             raise param_error("Phi", f"of shape (B, N, {self.n_taps})", f"<shape {Phi.shape}>")
         y = as_float_array(y, "y", shape=Phi.shape[:2], finite=self.nan_policy == "raise")
         good = np.isfinite(Phi).all(axis=2) & np.isfinite(y)
-        lines = self._start_states(Phi.shape[0])[:, 4 * self.n_taps: 5 * self.n_taps]
+        at, n = self._line_at(), self.n_taps
+        lines = self._start_states(Phi.shape[0])[:, at: at + n]
         for b in range(Phi.shape[0]):
             _check_line(Phi[b], good[b], lines[b], f"Phi[{b}]")
         u = np.where(good, Phi[:, :, 0] if Phi.shape[1] else 0.0, np.nan)
@@ -292,14 +334,24 @@ class FastRLS:
         return Phi, y, np.isfinite(Phi).all(axis=1) & np.isfinite(y)
 
     def _kernels(self):
+        """(run, run_batched), each taking (S, u, y, opt, Th, E, skipped[, rescues])."""
         from .._kernels.recursions import _fastrls as K
-        return K.ftf_run, K.ftf_run_batched
+        if self.method == "ftf":
+            return K.ftf_run, K.ftf_run_batched
+        th0 = self.theta0
+
+        def run(S, u, y, opt, Th, E, skipped):
+            return K.lattice_run(S, u, y, opt, th0, Th, E, skipped)
+
+        def run_batched(S, U, Y, opt, Th, E, skipped, rescues):
+            K.lattice_run_batched(S, U, Y, opt, th0, Th, E, skipped, rescues)
+        return run, run_batched
 
     def _run(self, u, y, store_theta) -> Trajectory:
         run, _ = self._kernels()
         N, n = u.shape[0], self.n_taps
         S = self._S.copy()  # the state changes only if the kernel returns
-        Th = np.empty((N if store_theta else 0, n))
+        Th = np.empty((N if store_theta and self.track_theta else 0, n))
         E = np.empty(N)
         skipped = np.zeros(N, dtype=np.bool_)
         r = run(S, np.ascontiguousarray(u), np.ascontiguousarray(y), self._opt(), Th, E,
@@ -323,7 +375,7 @@ class FastRLS:
         _, run_batched = self._kernels()
         B, N = u.shape
         S = self._start_states(B)
-        Th = np.empty((B, N if store_theta else 0, self.n_taps))
+        Th = np.empty((B, N if store_theta and self.track_theta else 0, self.n_taps))
         E = np.empty((B, N))
         skipped = np.zeros((B, N), dtype=np.bool_)
         r = np.zeros(B, dtype=np.int64)
@@ -378,7 +430,12 @@ class FastRLS:
                            copy=True)
         n = self.n_taps
         T = S.reshape(-1, L)
-        a, b, g, r = T[:, 5 * n], T[:, 5 * n + 1], T[:, 5 * n + 2], T[:, -1]
+        r = T[:, -1]
+        if self.method == "ftf":
+            a, b, g = T[:, 5 * n], T[:, 5 * n + 1], T[:, 5 * n + 2]
+        else:  # sqrt of the forward energy, and of the conversion factor
+            a, g = T[:, 7 * n + 1], T[:, 3 * n]
+            b = a
         if not (np.all(a > 0) and np.all(b > 0) and np.all((g > 0) & (g <= 1 + GAMMA_TOL))
                 and np.all((r >= 0) & (r == np.round(r)))):
             raise param_error("state['state']", "a FastRLS state (energies > 0, 0 < γ ≤ 1, "
@@ -413,17 +470,20 @@ class FastRLS:
         self.__dict__.update(type(self).from_state(state).__dict__)
 
 
-def _layout(method, n):
-    """(state length without the rescue count, name of the layout)."""
-    return (5 * n + 3, "ftf")
+def _layout(method, n, track):
+    """State length without the rescue count (see :mod:`adaptid._kernels.recursions._fastrls`)."""
+    if method == "ftf":
+        return 5 * n + 3
+    return 7 * n + 2 + (n * n + n if track else 0)
 
 
-def state_length(method, n) -> int:
+def state_length(options, n) -> int:
     """Length of ``get_state()["state"]`` (one stream) for a state file's reader."""
-    if method not in METHODS:
-        raise StateFileError(f"header option 'method' must be one of {METHODS}, "
-                             f"got {method!r:.40}")
-    return _layout(method, n)[0] + 1
+    method, track = options.get("method"), options.get("track_theta", True)
+    if method not in METHODS or not isinstance(track, bool):
+        raise StateFileError(f"header options 'method' and 'track_theta' must be one of "
+                             f"{METHODS} and a boolean, got {method!r:.40}, {track!r:.10}")
+    return _layout(method, n, track) + 1
 
 
 def _check_line(Phi, good, line, name):

@@ -207,7 +207,7 @@ def core_layout(path, header, kind):
         return {"theta0": (n, p), "state": (n * p,) if batch is None else (batch, n * p)}
     if kind == "FastRLS":  # the delay-line filter: its own layout (estimators/_fastrls.py)
         from ._fastrls import state_length
-        L = state_length(opts.get("method"), n)
+        L = state_length(opts, n)
         return {"theta0": (n, 1), "state": (L,) if batch is None else (batch, L)}
     L = n * p + n * n + n
     if kind == "SlidingWindowRLS":

@@ -168,3 +168,135 @@ def ftf_run_batched(S, U, Y, opt, Th, E, skipped, rescues):
     """B independent streams of :func:`ftf_run` in parallel (leading axis B)."""
     for b in prange(U.shape[0]):
         rescues[b] = ftf_run(S[b], U[b], Y[b], opt, Th[b], E[b], skipped[b])
+
+
+# --------------------------------------------------------------------------
+# The QR-decomposition least-squares lattice (method "lattice").
+#
+# State of one stream, ``S`` of length 7n + 2 (+ n² + n with the θ track):
+#
+#     S = [ theta (n) | xf (n) | eps (n+1) | c (n) | s (n) | yq (n) | x (n) | efor
+#           | R (n·n, row-major upper triangle) | z (n) ]
+#
+# ``xf`` the transformed forward prediction variables, ``eps`` the normalised
+# a-posteriori backward prediction errors of orders 0..n-1 and, last, the square
+# root of the conversion factor γ; ``c``, ``s`` the rotation angles; ``yq`` the
+# rotated reference (the tap multipliers of the normalised lattice); ``efor`` the
+# square root of the forward prediction-error energy (Regalia & Bellanger 1991;
+# SLICOT FD01AD, whose variable names these are). ``R``, ``z``: the square-root
+# information array of the same problem (Givens QRD-RLS, McWhirter 1983) from
+# which θ = R⁻¹z is read when the θ track is on (``opt[2] != 0``).
+# ``opt = [lambda, delta, track]``; ``theta0`` the prior mean (y − θ₀ᵀφ enters
+# the lattice).
+# --------------------------------------------------------------------------
+
+
+@njit(**NJIT_INLINE)
+def _givens(a, b):
+    """(c, s, r): c·a + s·b = r ≥ 0, −s·a + c·b = 0 for a ≥ 0 (LAPACK dlartg's)."""
+    r = np.sqrt(a * a + b * b)
+    if r == 0.0:
+        return 1.0, 0.0, 0.0
+    return a / r, b / r, r
+
+
+@njit(**NJIT)
+def _lattice_step(S, n, uk, yk, ls):
+    """One time update of the QR lattice; returns the a-priori output error."""
+    xf, ep, c, s, yq = n, 2 * n, 3 * n + 1, 4 * n + 1, 5 * n + 1
+    f = uk
+    for i in range(n):  # forward prediction rotations
+        t = S[xf + i] * ls
+        S[xf + i] = S[s + i] * f + S[c + i] * t
+        f = S[c + i] * f - S[s + i] * t
+    efor = S[7 * n + 1] * ls
+    t = np.sqrt(f * f + efor * efor)
+    f = f * S[ep + n] / t if t > 0.0 else 0.0
+    S[7 * n + 1] = t
+    for i in range(n - 1, -1, -1):  # reflection coefficients, backward errors
+        cc, ss, r = _givens(t, S[xf + i])
+        S[ep + i + 1] = cc * S[ep + i] - ss * f
+        f = cc * f + ss * S[ep + i]
+        t = r
+    S[ep] = f
+    nrm = 0.0
+    for i in range(n):
+        nrm += S[ep + i] * S[ep + i]
+    t = np.sqrt(max(0.0, 1.0 - nrm))
+    S[ep + n] = t
+    for i in range(n - 1, -1, -1):  # new rotation angles
+        S[c + i], S[s + i], t = _givens(t, S[ep + i])
+    f = yk
+    for i in range(n):  # joint process
+        t = S[yq + i] * ls
+        S[yq + i] = S[s + i] * f + S[c + i] * t
+        f = S[c + i] * f - S[s + i] * t
+    return f / S[ep + n]
+
+
+@njit(**NJIT)
+def _qr_track(S, n, yk, ls):
+    """Rotate the row [φ_k, y_k] into the square-root information array (R, z)."""
+    R, z, x = 7 * n + 2, 7 * n + 2 + n * n, 6 * n + 1
+    for i in range(n * n + n):
+        S[R + i] *= ls
+    # the working row lives in theta's slots (θ is recomputed below)
+    for j in range(n):
+        S[j] = S[x + j]
+    w = yk
+    for i in range(n):
+        cc, ss, r = _givens(S[R + i * n + i], S[i])
+        S[R + i * n + i] = r
+        for j in range(i + 1, n):
+            a = S[R + i * n + j]
+            S[R + i * n + j] = cc * a + ss * S[j]
+            S[j] = cc * S[j] - ss * a
+        a = S[z + i]
+        S[z + i] = cc * a + ss * w
+        w = cc * w - ss * a
+    for i in range(n - 1, -1, -1):  # θ = R⁻¹ z
+        v = S[z + i]
+        for j in range(i + 1, n):
+            v -= S[R + i * n + j] * S[j]
+        S[i] = v / S[R + i * n + i]
+
+
+@njit(**NJIT)
+def lattice_run(S, u, y, opt, theta0, Th, E, skipped):
+    """Run the QR lattice over u, y from state S (in place); as :func:`ftf_run`.
+
+    Without the θ track (``opt[2] == 0``) θ stays θ₀ and ``Th`` must have 0 rows.
+    Returns 0 (the lattice has no rescue).
+    """
+    n = theta0.shape[0]
+    ls = np.sqrt(opt[0])
+    track = opt[2] != 0.0
+    store = Th.shape[0] > 0
+    x = 6 * n + 1
+    for k in range(u.shape[0]):
+        uk, yk = u[k], y[k]
+        if not (np.isfinite(uk) and np.isfinite(yk)):
+            skipped[k] = True
+            E[k] = np.nan
+        else:
+            skipped[k] = False
+            for i in range(n - 1, 0, -1):
+                S[x + i] = S[x + i - 1]
+            S[x] = uk
+            yp = yk
+            for i in range(n):
+                yp -= theta0[i] * S[x + i]
+            E[k] = _lattice_step(S, n, uk, yp, ls)
+            if track:
+                _qr_track(S, n, yk, ls)
+        if store:
+            for i in range(n):
+                Th[k, i] = S[i]
+    return 0
+
+
+@njit(**NJIT_PARALLEL)
+def lattice_run_batched(S, U, Y, opt, theta0, Th, E, skipped, rescues):
+    """B independent streams of :func:`lattice_run` in parallel (leading axis B)."""
+    for b in prange(U.shape[0]):
+        rescues[b] = lattice_run(S[b], U[b], Y[b], opt, theta0, Th[b], E[b], skipped[b])
