@@ -16,6 +16,7 @@ import numpy as np
 from .._exceptions import StateFileError
 from .._validation import as_float_array, check_choice, check_int, check_scalar, param_error
 from . import _statefile
+from ._fastlayout import METHODS, layout as _layout
 from ._trajectory import Trajectory
 
 __all__ = ["FastRLS"]
@@ -26,7 +27,6 @@ FEEDBACK = (1.5, 2.5, 1.0)
 #: A rescue happens when the conversion factor γ exceeds 1 + GAMMA_TOL (in exact
 #: arithmetic 0 < γ ≤ 1; rounding of φᵀk̃ ≈ 0 may exceed 1 by a few ulps).
 GAMMA_TOL = 1e-8
-METHODS = ("ftf", "lattice")
 NAN_POLICIES = ("raise", "skip")
 
 
@@ -468,22 +468,6 @@ class FastRLS:
 
     def __setstate__(self, state):
         self.__dict__.update(type(self).from_state(state).__dict__)
-
-
-def _layout(method, n, track):
-    """State length without the rescue count (see :mod:`adaptid._kernels.recursions._fastrls`)."""
-    if method == "ftf":
-        return 5 * n + 3
-    return 7 * n + 2 + (n * n + n if track else 0)
-
-
-def state_length(options, n) -> int:
-    """Length of ``get_state()["state"]`` (one stream) for a state file's reader."""
-    method, track = options.get("method"), options.get("track_theta", True)
-    if method not in METHODS or not isinstance(track, bool):
-        raise StateFileError(f"header options 'method' and 'track_theta' must be one of "
-                             f"{METHODS} and a boolean, got {method!r:.40}, {track!r:.10}")
-    return _layout(method, n, track) + 1
 
 
 def _check_line(Phi, good, line, name):

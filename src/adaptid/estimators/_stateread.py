@@ -206,7 +206,7 @@ def core_layout(path, header, kind):
     if kind in GRADIENT_KINDS:
         return {"theta0": (n, p), "state": (n * p,) if batch is None else (batch, n * p)}
     if kind == "FastRLS":  # the delay-line filter: its own layout (estimators/_fastrls.py)
-        from ._fastrls import state_length
+        from ._fastlayout import state_length
         L = state_length(opts, n)
         return {"theta0": (n, 1), "state": (L,) if batch is None else (batch, L)}
     L = n * p + n * n + n
