@@ -463,6 +463,27 @@ class FastRLS:
                                  f"not a {cls.__name__}")
         return est
 
+    def to_c(self, directory, *, name="fir", dtype="float64"):
+        """Write ``NAME.h`` and ``NAME.c``: this FTF in C99, from its current state.
+
+        ``NAME_update(s, u, y)`` takes the new input sample and returns the
+        a-priori error; see :func:`adaptid.codegen.to_c`. ``method="ftf"`` only.
+
+        Parameters
+        ----------
+        directory : str or os.PathLike
+        name : str
+            C identifier: file names and the prefix of every symbol.
+        dtype : {"float64", "float32"}
+
+        Returns
+        -------
+        tuple of pathlib.Path
+            The header and the source file.
+        """
+        from ._hooks import upward
+        return upward("adaptid.codegen").to_c(self, directory, name=name, dtype=dtype)
+
     def __getstate__(self):
         return self.get_state()
 
