@@ -70,15 +70,17 @@ def test_closed_form_weighted_least_squares_at_checkpoints(method, lam):
         np.testing.assert_allclose(traj.theta[N1 - 1], theta, rtol=1e-9, atol=1e-11)
 
 
-def test_prior_mean_theta0_as_rls():
+@pytest.mark.parametrize("method", METHODS)
+def test_prior_mean_theta0_as_rls(method):
     rng = np.random.default_rng(3)
     n, lam, delta = 4, 0.995, 1.0
     u, y, _ = record(rng, n, 200)
     th0 = np.array([0.3, -1.0, 2.0, 0.5])
-    fast = FastRLS(n, forgetting=lam, delta=delta, theta0=th0).run_fir(u, y)
+    fast = FastRLS(n, forgetting=lam, delta=delta, theta0=th0, method=method).run_fir(u, y)
     ref = RLS(n, forgetting=lam, theta0=th0,
               P0=np.diag(lam ** np.arange(n)) / delta).run(delay_rows(u, n), y)
     assert rel(fast.theta, ref.theta) < 1e-10
+    assert rel(fast.error, ref.error) < 1e-10
 
 
 @pytest.mark.parametrize("method", METHODS)
