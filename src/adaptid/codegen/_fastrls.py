@@ -1,9 +1,10 @@
 r"""C code for :class:`adaptid.FastRLS` (the stabilised FTF): ``to_c`` of a delay-line filter.
 
 The generated pair NAME.h / NAME.c holds the FTF of
-:mod:`adaptid._kernels.recursions._fastrls`, operation for operation (the
-products rounded separately: the kernel's contractions make the trajectories
-agree to rounding, not bit for bit), from the estimator's current state. The
+:mod:`adaptid._kernels.recursions._fastrls`, step for step, from the
+estimator's current state. The dot products are summed in index order and
+every product is rounded (the kernel sums in four partial sums for n ≥ 8 and
+contracts a*b + c), so the trajectories agree to rounding, not bit for bit. The
 interface takes the new *input sample*, not a regressor:
 
 * ``NAME_t`` — θ, the predictors w_f, w_b, the gain k̃, the delay line x,

@@ -189,6 +189,7 @@ class FastRLS:
 
     @property
     def theta(self) -> np.ndarray:
+        """The current estimate θ, shape (n,) or (B, n) (a copy)."""
         if not self.track_theta:
             raise ValueError("theta is not tracked: this lattice was made with "
                              "track_theta=False (a-priori errors only)")
@@ -196,6 +197,7 @@ class FastRLS:
 
     @property
     def delay_line(self) -> np.ndarray:
+        """The current regressor [u_k, ..., u_(k-n+1)], shape (n,) or (B, n) (a copy)."""
         at = self._line_at()
         return self._S[..., at: at + self.n_taps].copy()
 
@@ -204,6 +206,7 @@ class FastRLS:
 
     @property
     def n_rescues(self):
+        """Rescues of the FTF so far (per stream after :meth:`run_batched`)."""
         return self._rescues.copy() if self._batch is not None else int(self._rescues)
 
     def _opt(self) -> np.ndarray:

@@ -53,6 +53,34 @@ from ..._config import NJIT, NJIT_INLINE, NJIT_PARALLEL, njit
 
 
 @njit(**NJIT_INLINE)
+def _dot(S, a, b, n):
+    """Σᵢ S[a + i] S[b + i]; for n ≥ 8 in four interleaved partial sums.
+
+    The dot products are the latency-bound chains of the FTF (one FMA after
+    the other); four chains let them overlap (``benchmarks/bench_fastrls.py``).
+    The sum differs from the sequential one by rounding only.
+    """
+    if n < 8:
+        s = 0.0
+        for i in range(n):
+            s += S[a + i] * S[b + i]
+        return s
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    m = n - n % 4
+    for i in range(0, m, 4):
+        s0 += S[a + i] * S[b + i]
+        s1 += S[a + i + 1] * S[b + i + 1]
+        s2 += S[a + i + 2] * S[b + i + 2]
+        s3 += S[a + i + 3] * S[b + i + 3]
+    for i in range(m, n):
+        s0 += S[a + i] * S[b + i]
+    return (s0 + s1) + (s2 + s3)
+
+
+@njit(**NJIT_INLINE)
 def _predictors(S, n, uk, q, opt):
     """Order-n forward/backward update with u_k; shifts u_k into the line.
 
@@ -61,9 +89,7 @@ def _predictors(S, n, uk, q, opt):
     lam = opt[0]
     wf, wb, kt, x = n, 2 * n, 3 * n, 4 * n
     alpha, beta, gamma = S[5 * n], S[5 * n + 1], S[5 * n + 2]
-    ef = uk
-    for i in range(n):
-        ef -= S[wf + i] * S[x + i]
+    ef = uk - _dot(S, wf, x, n)
     epsf = gamma * ef
     g0 = ef / (lam * alpha)
     q[0] = g0
@@ -77,9 +103,7 @@ def _predictors(S, n, uk, q, opt):
     for i in range(n - 1, 0, -1):  # the line becomes φ_k
         S[x + i] = S[x + i - 1]
     S[x] = uk
-    ebs = ub
-    for i in range(n):
-        ebs -= S[wb + i] * S[x + i]
+    ebs = ub - _dot(S, wb, x, n)
     ebf = lam * beta * m
     eb1 = opt[2] * ebs + (1.0 - opt[2]) * ebf
     eb2 = opt[3] * ebs + (1.0 - opt[3]) * ebf
@@ -87,12 +111,11 @@ def _predictors(S, n, uk, q, opt):
     gam2 = 1.0 / (ginv1 - m * eb3)
     beta = lam * beta + gam2 * eb2 * eb2
     c = gam2 * eb1
-    s = 0.0
     for i in range(n):
         k = q[i] + m * S[wb + i]
         S[kt + i] = k
         S[wb + i] += k * c
-        s += k * S[x + i]
+    s = _dot(S, kt, x, n)
     gamma = 1.0 / (1.0 + s) if opt[5] != 0.0 else gam2
     S[5 * n], S[5 * n + 1], S[5 * n + 2] = alpha, beta, gamma
     return (alpha > 0.0 and beta > 0.0 and gamma > 0.0 and gamma <= 1.0 + opt[6]
@@ -150,9 +173,7 @@ def ftf_run(S, u, y, opt, Th, E, skipped):
             if not _predictors(S, n, uk, q, opt):
                 _rescue(S, n, opt, q, keep)
                 rescues += 1
-            e = yk
-            for i in range(n):
-                e -= S[i] * S[x + i]
+            e = yk - _dot(S, 0, x, n)
             E[k] = e
             c = S[5 * n + 2] * e
             for i in range(n):
