@@ -39,6 +39,7 @@ _LAZY = {
     "KalmanRLS": "adaptid.estimators",
     "LMS": "adaptid.estimators",
     "NLMS": "adaptid.estimators",
+    "FastRLS": "adaptid.estimators",  # issue 38
     "Trajectory": "adaptid.estimators",
     "WindowStats": "adaptid.estimators",
     "estimator": "adaptid.estimators",

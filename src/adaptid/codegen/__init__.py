@@ -72,8 +72,10 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
 
     Parameters
     ----------
-    est : RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS
-        Single stream and single output. RLS forgetting: a constant λ (with or
+    est : RLS, SlidingWindowRLS, KalmanRLS, LMS, NLMS or FastRLS
+        Single stream and single output. A :class:`~adaptid.FastRLS`
+        (``method="ftf"``) gets its own interface, ``NAME_update(s, u, y)``
+        taking the new input sample (see :mod:`adaptid.codegen._fastrls`). RLS forgetting: a constant λ (with or
         without ``P_max``), ``Exponential``, ``Directional``, ``ConstantTrace``
         or ``Variable``. Samples have weight 1 and the constant λ.
     directory : str or os.PathLike
@@ -110,6 +112,9 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
     from ._narx import is_narx, write_narx
     if is_narx(est):  # a NARX predictor (codegen/_narx.py), not an estimator's recursion
         return write_narx(est, directory, name=name, dtype=dtype)
+    if type(est).__name__ == "FastRLS":  # the delay-line filter: its own generator (issue 38)
+        from . import _fastrls
+        return _fastrls.write(est, directory, name, dtype)
     if not hasattr(est, "get_state"):
         from .._validation import param_error
         raise param_error("est", "an adaptid RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS",

@@ -18,6 +18,7 @@ from their private modules by the layers above.
 """
 
 from ._factory import estimator
+from ._fastrls import FastRLS
 from ._kalman import KalmanRLS
 from ._lms import LMS, NLMS
 from ._rls import RLS
@@ -30,10 +31,11 @@ from ._trajectory import Trajectory
 from ._window import SlidingWindowRLS
 from ._windowstats import WindowStats
 
-for _cls in (RLS, SlidingWindowRLS, KalmanRLS, LMS, NLMS):
+for _cls in (RLS, SlidingWindowRLS, KalmanRLS, LMS, NLMS, FastRLS):
     _register(_cls.__name__, _cls)
 del _cls
 
 __all__ = ["RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS", "Trajectory", "SegmentResult",
            "WindowStats", "estimator", "recursive_fit_stats", "RecursiveFitStats",
-           "KernelSettings", "load_state", "save_state", "size_generic_kernels"]
+           "KernelSettings", "load_state", "save_state", "size_generic_kernels",
+           "FastRLS"]  # FastRLS: issue 38

@@ -90,7 +90,8 @@ _DEFINED_IN = {"RLS": "adaptid.estimators", "SlidingWindowRLS": "adaptid.estimat
                "RecursiveARX": "adaptid.models.streaming",
                "RecursiveAR": "adaptid.models.streaming",
                "RecursiveIV": "adaptid.models.iv",
-               "RecursiveNARX": "adaptid.models.nonlinear"}
+               "RecursiveNARX": "adaptid.models.nonlinear",
+               "FastRLS": "adaptid.estimators"}
 
 
 def register_state_class(name: str, cls) -> None:
@@ -106,7 +107,8 @@ def _lookup(name):
 
 
 def _classes():
-    return {k: _lookup(k) for k in ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS")}
+    return {k: _lookup(k) for k in ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS",
+                                    "FastRLS")}
 
 
 def estimator_from_state(state: dict):

@@ -53,7 +53,7 @@ MAX_HEADER_BYTES = 2 ** 20
 MAX_MEMBERS = 16
 #: Room for a ``.npy`` preamble (magic, version, dict) in front of the data.
 _NPY_PREAMBLE_MAX = 4096
-CORE_KINDS = ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS")
+CORE_KINDS = ("RLS", "SlidingWindowRLS", "KalmanRLS", "LMS", "NLMS", "FastRLS")
 #: gradient estimators: the state is θ alone, no P0 (no covariance)
 GRADIENT_KINDS = ("LMS", "NLMS")
 
@@ -205,6 +205,10 @@ def core_layout(path, header, kind):
         refuse(path, f"header field 'options' must be an object, got {type(opts).__name__}")
     if kind in GRADIENT_KINDS:
         return {"theta0": (n, p), "state": (n * p,) if batch is None else (batch, n * p)}
+    if kind == "FastRLS":  # the delay-line filter: its own layout (estimators/_fastrls.py)
+        from ._fastlayout import state_length
+        L = state_length(opts, n)
+        return {"theta0": (n, 1), "state": (L,) if batch is None else (batch, L)}
     L = n * p + n * n + n
     if kind == "SlidingWindowRLS":
         M = _int(path, opts, "window", n, MAX_WINDOW)
@@ -331,7 +335,7 @@ def check_content(path, kind, header, arrays):
 
 def _content_checks(kind, form, S, n, p, tail):
     """(what must hold, per-row verdict) in order; later ones assume the earlier hold."""
-    if kind in GRADIENT_KINDS:
+    if kind in GRADIENT_KINDS + ("FastRLS",):  # FastRLS: its own checks (_fastlayout)
         yield "θ must be finite", np.all(np.isfinite(S), axis=1)
         return
     if form == "ud":
