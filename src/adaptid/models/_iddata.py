@@ -239,13 +239,14 @@ class IDData:
             if time is None and u is not None:
                 time, freq = _index_of(u)
                 source = "u"
-        Y = as_float_array(getattr(y, "to_numpy", lambda: y)(), "y", ndim=(1, 2))
+        Y = as_float_array(getattr(y, "to_numpy", lambda: y)(), "y", ndim=(1, 2), allow_nan=True)
         Y = Y.reshape(Y.shape[0], -1)
         N = Y.shape[0]
         if u is None:
             U = np.zeros((N, 0))
         else:
-            U = as_float_array(getattr(u, "to_numpy", lambda: u)(), "u", ndim=(1, 2))
+            U = as_float_array(getattr(u, "to_numpy", lambda: u)(), "u", ndim=(1, 2),
+                               allow_nan=True)
             U = U.reshape(U.shape[0], -1)
             if U.shape[0] != N:
                 raise param_error("u", f"with N={N} rows (as y)", f"<{U.shape[0]} rows>")
@@ -270,6 +271,100 @@ class IDData:
         self.u_names = _default_names("u", U.shape[1], u_names, "u_names")
         self.y_trend = np.zeros_like(self.outputs)
         self.u_trend = np.zeros_like(self.inputs)
+        self._parts = None
+
+    # ------------------------------------------------------- experiments
+    def merge(self, *others):
+        r"""Several experiments as one record (MATLAB's ``merge``), kept apart.
+
+        The samples are concatenated (``len`` is the total, ``outputs`` /
+        ``inputs`` the stacked signals), but every function that forms
+        regressors or data matrices forms them inside each experiment,
+        never across the boundary between two of them: the ARX rows of a
+        merged record are the rows of each experiment stacked, the filters
+        of the prediction-error models restart at each experiment, and so do
+        ``compare``, ``resid``, ``n4sid`` (see the user guide's page on
+        experiments).
+
+        Parameters
+        ----------
+        *others : IDData
+            Records with the same output and input names and the same
+            ``dt`` (to a relative 1e-9) as this one; merged records are
+            expanded into their experiments.
+
+        Returns
+        -------
+        IDData
+            With :attr:`n_experiments` the number of experiments.
+
+        Raises
+        ------
+        ValueError
+            If a record has other signal names or another ``dt`` (the
+            message names ``others[i]``).
+        TypeError
+            If one of ``others`` is not an IDData.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from adaptid import IDData
+        >>> d = IDData(np.ones(5), np.zeros(5)).merge(IDData(np.ones(3), np.zeros(3)))
+        >>> d.n_experiments, len(d), len(d.experiment(1))
+        (2, 8, 3)
+        """
+        parts = list(self.experiments)
+        for i, other in enumerate(others):
+            if not isinstance(other, IDData):
+                raise param_error(f"others[{i}]", "an IDData", other, exc=TypeError)
+            if (other.y_names, other.u_names) != (self.y_names, self.u_names):
+                raise param_error(f"others[{i}]", f"a record with outputs {list(self.y_names)} "
+                                  f"and inputs {list(self.u_names)} (as the first)",
+                                  f"<outputs {list(other.y_names)}, inputs {list(other.u_names)}>")
+            if abs(other.dt - self.dt) > 1e-9 * self.dt:
+                raise param_error(f"others[{i}]", f"a record with dt={self.dt:g} (as the first)",
+                                  f"<dt={other.dt:g}>")
+            kinds = {None if p.time is None else p.time.dtype.kind in "Mm" for p in parts}
+            theirs = None if other.time is None else other.time.dtype.kind in "Mm"
+            if theirs is not None and None not in kinds and theirs not in kinds:
+                raise param_error(f"others[{i}]", "time stamps of the same kind as the first "
+                                  "(all datetime/timedelta or all numbers)", "<another kind>")
+            parts.extend(other.experiments)
+        return _merged(parts)
+
+    @property
+    def n_experiments(self) -> int:
+        """Number of experiments (1 unless the record comes from :meth:`merge`)."""
+        return 1 if self._parts is None else len(self._parts)
+
+    @property
+    def experiments(self) -> list:
+        """The experiments as single-experiment :class:`IDData` records (a list)."""
+        return [self] if self._parts is None else list(self._parts)
+
+    def experiment(self, k):
+        """Experiment ``k`` (0-based) as an :class:`IDData`.
+
+        Parameters
+        ----------
+        k : int
+            0 ≤ k < :attr:`n_experiments`.
+
+        Returns
+        -------
+        IDData
+        """
+        from .._validation import check_int
+
+        k = check_int(k, "k", low=0, high=self.n_experiments - 1)
+        return self.experiments[k]
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Sample offsets of the experiments, shape (n_experiments + 1,): experiment e is
+        the samples ``bounds[e] … bounds[e+1] − 1`` of :attr:`outputs`."""
+        return np.concatenate([[0], np.cumsum([len(p) for p in self.experiments])]).astype(np.int64)
 
     # ------------------------------------------------------------ access
     @property
@@ -297,7 +392,11 @@ class IDData:
 
     @property
     def t(self) -> np.ndarray:
-        """The time axis: the stamps given, else ``dt · k`` (k counted from the original start)."""
+        """The time axis: the stamps given, else ``dt · k`` (k counted from the original start).
+
+        A merged record's is each experiment's time axis in turn."""
+        if self._parts is not None:
+            return np.concatenate([p.t for p in self._parts])
         if self.time is not None:
             return self.time
         return self.dt * (self._k0 + np.arange(len(self)))
@@ -307,7 +406,17 @@ class IDData:
 
     def _copy_with(self, rows=None, *, outputs=None, inputs=None, y_trend=None, u_trend=None,
                    dt=None, k0=None):
+        if self._parts is not None:        # merged: the same change, experiment by experiment
+            if rows is not None or dt is not None or k0 is not None:
+                raise ValueError("a merged IDData is sliced experiment by experiment: use "
+                                 "data.experiment(k)[...] and merge the parts")
+            b = self.bounds
+            given = {"outputs": outputs, "inputs": inputs, "y_trend": y_trend, "u_trend": u_trend}
+            return _merged([p._copy_with(**{n: None if v is None else v[b[e]: b[e + 1]]
+                                            for n, v in given.items()})
+                            for e, p in enumerate(self._parts)])
         new = object.__new__(IDData)
+        new._parts = None
         sel = slice(None) if rows is None else rows
         new.outputs = np.ascontiguousarray(self.outputs[sel] if outputs is None else outputs)
         new.inputs = np.ascontiguousarray(self.inputs[sel] if inputs is None else inputs)
@@ -323,6 +432,9 @@ class IDData:
         """Samples by slice, e.g. ``data[:300]`` (a step multiplies ``dt``)."""
         if not isinstance(key, slice):
             raise param_error("key", "a slice of samples (e.g. data[100:400])", key, exc=TypeError)
+        if self._parts is not None:
+            raise param_error("key", "no slice of a merged record (slice one experiment: "
+                              "data.experiment(k)[...])", key, exc=TypeError)
         start, stop, step = key.indices(len(self))
         if step < 1:
             raise param_error("slice step", "a positive integer", step)
@@ -346,7 +458,12 @@ class IDData:
         Returns
         -------
         (IDData, IDData)
+            For a merged record, each experiment is split so, and the first
+            parts are merged, and the second parts.
         """
+        if self._parts is not None:
+            halves = [p.split(fraction) for p in self._parts]
+            return _merged([h[0] for h in halves]), _merged([h[1] for h in halves])
         fraction = check_scalar(fraction, "fraction", low=0.0, high=1.0, low_open=True,
                                 high_open=True)
         n1 = int(round(fraction * len(self)))
@@ -372,18 +489,25 @@ class IDData:
         Returns
         -------
         IDData
+            A merged record is detrended experiment by experiment. NaN
+            samples (gaps) are left out of the fit and stay NaN.
         """
         kind = check_choice(kind, "kind", ("constant", "linear"))
+        if self._parts is not None:
+            return _merged([p.detrend(kind) for p in self._parts])
         N = len(self)
         X = np.ones((N, 1))
         if kind == "linear":
             X = np.column_stack([X, np.arange(N) / max(N - 1, 1)])
 
         def fitted(S):
-            if S.shape[1] == 0:
-                return np.zeros_like(S)
-            coef = np.linalg.lstsq(X, S, rcond=None)[0]   # QR/SVD, 1 or 2 columns
-            return X @ coef
+            out = np.zeros_like(S)
+            for j in range(S.shape[1]):
+                ok = ~np.isnan(S[:, j])
+                if ok.any():
+                    coef = np.linalg.lstsq(X[ok], S[ok, j], rcond=None)[0]   # QR/SVD, 1-2 columns
+                    out[:, j] = X @ coef
+            return out
 
         ty, tu = fitted(self.outputs), fitted(self.inputs)
         return self._copy_with(outputs=self.outputs - ty, inputs=self.inputs - tu,
@@ -413,6 +537,9 @@ class IDData:
             import pandas as pd
         except ImportError as err:  # pragma: no cover - depends on the extra
             raise ImportError("to_frame needs pandas: pip install 'adaptid[pandas]'") from err
+        if self._parts is not None:     # the experiments stacked, under an "experiment" level
+            return pd.concat([p.to_frame() for p in self._parts],
+                             keys=range(len(self._parts)), names=["experiment"])
         cols = {n: self.outputs[:, i] for i, n in enumerate(self.y_names)}
         cols.update({n: self.inputs[:, i] for i, n in enumerate(self.u_names)})
         return pd.DataFrame(cols, index=pd.Index(self.t, name="time"))
@@ -427,21 +554,47 @@ class IDData:
         if fig is None:
             fig = plt.figure(figsize=(7, 1.8 * n + 0.6))
         axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
-        t = self.t
-        for i, name in enumerate(self.y_names):
-            axes[i].plot(t, self.outputs[:, i], lw=0.9)
-            axes[i].set_ylabel(name)
-        for j, name in enumerate(self.u_names):
-            ax = axes[self.n_outputs + j]
-            ax.step(t, self.inputs[:, j], where="post", lw=0.9)
-            ax.set_ylabel(name)
+        for e, part in enumerate(self.experiments):     # one line per experiment
+            t = part.t
+            label = f"experiment {e}" if self._parts is not None else None
+            for i, name in enumerate(self.y_names):
+                axes[i].plot(t, part.outputs[:, i], lw=0.9, label=label)
+                axes[i].set_ylabel(name)
+            for j, name in enumerate(self.u_names):
+                ax = axes[self.n_outputs + j]
+                ax.step(t, part.inputs[:, j], where="post", lw=0.9)
+                ax.set_ylabel(name)
+        if self._parts is not None:
+            axes[0].legend(fontsize="small")
         axes[-1].set_xlabel("time" if self.time is not None else "time (s)")
         return fig
 
     def __repr__(self) -> str:
         trend = "" if not (self.y_trend.any() or self.u_trend.any()) else ", detrended"
+        if self._parts is not None:
+            trend += f", experiments={self.n_experiments} (N={[len(p) for p in self._parts]})"
+        gaps = int((np.isnan(self.outputs).any(axis=1) | np.isnan(self.inputs).any(axis=1)).sum())
+        if gaps:
+            trend += f", {gaps} sample(s) with NaN"
         return (f"IDData(N={len(self)}, outputs={list(self.y_names)}, inputs={list(self.u_names)}, "
                 f"dt={self.dt:g}{trend})")
+
+
+def _merged(parts):
+    """One IDData holding the single-experiment records ``parts`` (no checks)."""
+    if len(parts) == 1:
+        return parts[0]
+    first = parts[0]
+    new = object.__new__(IDData)
+    new._parts = tuple(parts)
+    new.outputs = np.ascontiguousarray(np.concatenate([p.outputs for p in parts]))
+    new.inputs = np.ascontiguousarray(np.concatenate([p.inputs for p in parts]))
+    new.y_trend = np.concatenate([p.y_trend for p in parts])
+    new.u_trend = np.concatenate([p.u_trend for p in parts])
+    new.dt, new._k0 = first.dt, 0
+    new.y_names, new.u_names = first.y_names, first.u_names
+    new.time = None
+    return new
 
 
 #: What every entry point (the models' ``fit`` / ``fit_recursive``, ``compare``,
