@@ -84,3 +84,184 @@ def test_nan_samples_are_kept_and_detrended_around(rng):
     assert np.isnan(dd.y[[5, 6, 30]]).all()
     with pytest.raises(ValueError, match="y must be"):
         IDData(np.r_[1.0, np.inf], np.ones(2))
+
+
+# ------------------------------------------------------ regressors and ARX
+def _rows_by_hand(y, u, na, nb, nk):
+    """ARX rows [y[k-1..k-na], u[k-nk..k-nk-nb+1]] of one experiment, k = s … N-1."""
+    s = max(na, nk + nb - 1)
+    Phi = [[y[k - j] for j in range(1, na + 1)] + [u[k - nk - j] for j in range(nb)]
+           for k in range(s, len(y))]
+    return np.array(Phi, dtype=float).reshape(-1, na + nb), y[s:]
+
+
+def test_arx_regressors_of_merged_records_stack_each_experiments_rows(three):
+    from adaptid.models import arx_regressors, fir_regressors
+
+    m = three[0].merge(*three[1:])
+    reg = arx_regressors(m, None, 2, 3, 2)
+    blocks = [_rows_by_hand(e.y, e.u, 2, 3, 2) for e in three]
+    np.testing.assert_array_equal(reg.Phi, np.vstack([b[0] for b in blocks]))
+    np.testing.assert_array_equal(reg.y, np.concatenate([b[1] for b in blocks]))
+    # index: the rows' positions in the concatenated signals; s = nk + nb - 1 = 4 lags
+    np.testing.assert_array_equal(reg.index, np.r_[4:300, 304:500, 504:750])
+    np.testing.assert_array_equal(reg.meta["row_bounds"], [0, 296, 492, 738])
+    # lists of records give the same rows
+    reg2 = arx_regressors([e.y for e in three], [e.u for e in three], 2, 3, 2)
+    np.testing.assert_array_equal(reg2.Phi, reg.Phi)
+    fir = fir_regressors(m, None, 3, 1)
+    np.testing.assert_array_equal(
+        fir.Phi, np.vstack([_rows_by_hand(e.y, e.u, 0, 3, 1)[0] for e in three]))
+
+
+def test_arx_fit_of_merged_records_is_lstsq_on_stacked_rows(three):
+    from adaptid.models import AR, ARX
+
+    m = three[0].merge(*three[1:])
+    blocks = [_rows_by_hand(e.y, e.u, 2, 2, 1) for e in three]
+    Phi = np.vstack([b[0] for b in blocks])
+    Phi[:, :2] *= -1                      # MATLAB's sign of the a coefficients
+    target = np.concatenate([b[1] for b in blocks])
+    theta = np.linalg.lstsq(Phi, target, rcond=None)[0]
+    model = ARX(2, 2, 1).fit(m)
+    np.testing.assert_allclose(model.theta, theta, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(model.residuals, target - Phi @ theta, atol=1e-10)
+    assert model.n_experiments == 3 and model.n_dropped == 0
+    # the concatenated record would have 2 more rows (lags across the two boundaries)
+    assert ARX(2, 2, 1).fit(m.y, m.u).residuals.size == model.residuals.size + 4
+    # the recursive fit runs over the same stacked rows
+    traj = ARX(2, 2, 1).fit_recursive(m)
+    assert traj.theta.shape[0] == target.size
+    # AR: each experiment's rows
+    ar = AR(2).fit(IDData(three[0].y).merge(IDData(three[1].y)))
+    rows = [_rows_by_hand(e.y, e.u, 2, 0, 1) for e in three[:2]]
+    Phi = -np.vstack([r[0] for r in rows])
+    np.testing.assert_allclose(ar.theta, np.linalg.lstsq(Phi, np.concatenate([r[1] for r in rows]),
+                                                         rcond=None)[0], rtol=1e-10)
+
+
+def test_arx_leaves_out_the_rows_that_touch_a_nan(rng):
+    from adaptid.models import ARX
+
+    y, u = _plant(rng, 400)
+    y[[50, 51, 200]] = np.nan
+    u[300] = np.nan
+    Phi, target = _rows_by_hand(y, u, 2, 2, 1)
+    keep = np.isfinite(Phi).all(axis=1) & np.isfinite(target)
+    Phi[:, :2] *= -1
+    theta = np.linalg.lstsq(Phi[keep], target[keep], rcond=None)[0]
+    model = ARX(2, 2, 1).fit(y, u)
+    np.testing.assert_allclose(model.theta, theta, rtol=1e-10)
+    # y[50], y[51]: rows 50-53; y[200]: rows 200-202; u[300]: rows 301-302
+    assert model.n_dropped == int((~keep).sum()) == 9
+    assert "rows left out (NaN)" in model.summary().stats
+    assert model.summary().stats["rows left out (NaN)"] == 9
+    with pytest.raises(ValueError, match="y must be without NaN"):
+        ARX(2, 2, 1).fit(y, u, nan_policy="raise")
+    with pytest.raises(ValueError, match="nan_policy must be"):
+        ARX(2, 2, 1).fit(y, u, nan_policy="skip")
+
+
+# ------------------------------------------------------- filter-based models
+def _armax_errors(theta, recs, na, nb, nc, nk):
+    """Oracle: per experiment, ε = (A y − B u)/C on the rows k ≥ s, filters from zero."""
+    from scipy.optimize import least_squares  # noqa: F401  (used by the callers)
+
+    a, b, c = theta[:na], theta[na: na + nb], theta[na + nb:]
+    s = max(na, nk + nb - 1)
+    out = []
+    for y, u in recs:
+        v = lfilter(np.r_[1.0, a], [1.0], y) - lfilter(np.r_[np.zeros(nk), b], [1.0], u)
+        out.append(lfilter([1.0], np.r_[1.0, c], v[s:]))
+    return np.concatenate(out)
+
+
+def _oe_errors(theta, recs, nb, nf, nk):
+    """Oracle: per experiment, ε = y − B/F u on the rows k ≥ s, F's filter from zero at s."""
+    b, f = theta[:nb], theta[nb:]
+    s = nk + nb - 1
+    out = []
+    for y, u in recs:
+        bu = lfilter(np.r_[np.zeros(nk), b], [1.0], u)[s:]
+        out.append(y[s:] - lfilter([1.0], np.r_[1.0, f], bu))
+    return np.concatenate(out)
+
+
+def _two_armax_records(rng):
+    recs = []
+    for N in (700, 500):
+        u = rng.standard_normal(N)
+        e = 0.2 * rng.standard_normal(N)
+        y = lfilter([0, 1.0, 0.5], [1, -1.2, 0.5], u) + lfilter([1, 0.6], [1, -1.2, 0.5], e)
+        recs.append((y, u))
+    return recs
+
+
+def test_armax_criterion_sums_over_experiments(rng):
+    """The PEM estimate on a merged record minimises the sum over the experiments of the
+    oracle's per-experiment prediction errors (scipy's least_squares on the oracle)."""
+    from scipy.optimize import least_squares
+    from adaptid.models import ARMAX
+
+    recs = _two_armax_records(rng)
+    m = IDData(*recs[0]).merge(IDData(*recs[1]))
+    model = ARMAX(2, 2, 1, 1).fit(m)
+    np.testing.assert_allclose(model.residuals, _armax_errors(model.theta, recs, 2, 2, 1, 1),
+                               atol=1e-10)
+    ref = least_squares(_armax_errors, np.r_[-1.0, 0.4, 0.8, 0.3, 0.3], args=(recs, 2, 2, 1, 1),
+                        xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    # both minimise the same smooth criterion from different starts: 1e-5 leaves room for
+    # the two optimisers' stopping rules
+    np.testing.assert_allclose(model.theta, ref.x, atol=1e-5)
+    assert model.n_experiments == 2
+    # concatenating the records instead (filters running across the boundary) differs
+    cat = ARMAX(2, 2, 1, 1).fit(m.y, m.u)
+    assert cat.residuals.size == model.residuals.size + 2
+
+
+def test_oe_criterion_sums_over_experiments_and_gaps_split_the_record(rng):
+    from scipy.optimize import least_squares
+    from adaptid.models import OE
+
+    recs = []
+    for N in (600, 400):
+        u = rng.standard_normal(N)
+        recs.append((lfilter([0, 1.0, 0.5], [1, -0.7], u) + 0.1 * rng.standard_normal(N), u))
+    m = IDData(*recs[0]).merge(IDData(*recs[1]))
+    model = OE(2, 1, 1).fit(m)
+    np.testing.assert_allclose(model.residuals, _oe_errors(model.theta, recs, 2, 1, 1), atol=1e-10)
+    ref = least_squares(_oe_errors, np.r_[0.5, 0.2, -0.3], args=(recs, 2, 1, 1),
+                        xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    np.testing.assert_allclose(model.theta, ref.x, atol=1e-6)
+    # one record with a NaN gap where the second starts = the two runs merged
+    y = np.r_[recs[0][0], np.nan, np.nan, recs[1][0]]
+    u = np.r_[recs[0][1], 0.0, 0.0, recs[1][1]]
+    gap = OE(2, 1, 1).fit(y, u)
+    np.testing.assert_allclose(gap.theta, model.theta, rtol=1e-9)
+    np.testing.assert_allclose(gap.residuals, model.residuals, rtol=1e-9, atol=1e-12)
+    # the rows left out: 2 samples of gap + 2 lag rows to restart after it
+    assert gap.n_dropped == 2 + 2
+    with pytest.raises(ValueError, match="y must be without NaN"):
+        OE(2, 1, 1).fit(y, u, nan_policy="raise")
+    with pytest.raises(ValueError, match="one experiment without NaN gaps"):
+        OE(2, 1, 1).fit_recursive(y, u)
+
+
+def test_bj_and_arma_run_per_experiment(rng):
+    from adaptid.models import ARMA, BJ
+
+    recs = _two_armax_records(rng)
+    m = IDData(*recs[0]).merge(IDData(*recs[1]))
+    bj = BJ(2, 1, 1, 2, 1).fit(m)
+    assert bj.residuals.size == (700 - 2) + (500 - 2) and bj.n_experiments == 2
+    e = rng.standard_normal(1500)
+    y = lfilter([1, 0.5], [1, -0.8], e)
+    two = IDData(y[:900]).merge(IDData(y[900:]))
+    arma = ARMA(1, 1).fit(two)
+    assert arma.residuals.size == 899 + 599
+    np.testing.assert_allclose(arma.theta, [-0.8, 0.5], atol=0.08)
+    # a gap in a time series: the rows on each side, restarted
+    yg = y.copy()
+    yg[700:705] = np.nan
+    g = ARMA(1, 1).fit(yg)
+    assert g.residuals.size == 699 + 794 and g.n_dropped == 6

@@ -53,6 +53,12 @@ class ARX(_PolyModel):
     A, B, C, F : ndarray
         Polynomials (C = F = [1]).
     aic, fpe, loss : float
+    n_dropped : int
+        Rows left out of the fit because their regressors or target touch a
+        NaN (gaps; see :meth:`fit`'s ``nan_policy``).
+    n_experiments : int
+        Experiments of the fit's record (:meth:`IDData.merge`); their rows
+        are formed inside each and stacked.
 
     References
     ----------
@@ -96,7 +102,7 @@ class ARX(_PolyModel):
         reg, Phi = self._fixed_regression(y, U, self._single)
         return reg, Phi
 
-    def fit(self, y, u=None):
+    def fit(self, y, u=None, *, nan_policy="omit"):
         r"""Least-squares fit on the whole record (QR, :func:`adaptid.lstsq`).
 
         Parameters
@@ -111,6 +117,11 @@ class ARX(_PolyModel):
             :func:`resid`, :func:`select_order`; anything else is refused
             naming the argument. (N, 1) is squeezed to (N,).
         u : array_like, shape (N,) or (N, m); pandas
+        nan_policy : {"omit", "raise"}
+            ``"omit"`` (default): NaN samples are gaps: the rows whose regressors or target touch a NaN are left out (those of a merged IDData are formed inside each experiment and stacked)
+            (``n_dropped`` counts the rows lost, and ``summary()`` reports
+            it). ``"raise"``: a NaN in y or u is refused (ValueError naming
+            the signal).
 
         Returns
         -------
@@ -118,6 +129,9 @@ class ARX(_PolyModel):
         """
         from .._lstsq import lstsq
 
+        from ._segments import check_nan_policy
+
+        self._nan_policy = check_nan_policy(nan_policy)
         reg, Phi = self._prepare(y, u)
         res = lstsq(Phi, reg.y)
         self.theta = np.asarray(res.theta, dtype=np.float64)

@@ -1,0 +1,113 @@
+r"""Experiments and gaps: the pieces of a record inside which regressors are formed.
+
+A record is one or more experiments (:meth:`IDData.merge`); NaN samples are
+gaps. Least-squares structures (ARX, AR, FIR) keep every row whose
+regressors and target are all measured; filter-based structures (ARMAX, OE,
+BJ, ARMA, state space) run their filters on the runs of complete samples
+between gaps, each run a separate experiment. These helpers give the
+sample bounds of both and apply a filter or a lag matrix segment by segment.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._lazy import lazy
+from .._validation import check_choice, param_error
+
+signal = lazy("scipy.signal")
+
+__all__ = ["NAN_POLICIES", "check_nan_policy", "record_bounds", "complete_runs",
+           "lfilter_segments", "lagmat_segments", "per_segment", "segment_record"]
+
+#: ``nan_policy`` of the models' ``fit``: leave out the rows that touch a NaN, or refuse it
+NAN_POLICIES = ("omit", "raise")
+
+
+def check_nan_policy(nan_policy):
+    """``nan_policy`` validated against :data:`NAN_POLICIES`."""
+    return check_choice(nan_policy, "nan_policy", NAN_POLICIES)
+
+
+def refuse_nan(arrays, names):
+    """ValueError naming the first of ``arrays`` (named ``names``) that holds a NaN."""
+    for arr, name in zip(arrays, names):
+        bad = np.isnan(arr)
+        if bad.any():
+            n = int(bad.reshape(bad.shape[0], -1).any(axis=1).sum())
+            raise param_error(name, "without NaN (nan_policy='raise'; the default 'omit' "
+                              "leaves out the rows that touch a gap)",
+                              f"<{n} sample(s) with NaN>")
+
+
+def record_bounds(data, N):
+    """Sample offsets of the experiments of ``data`` (an IDData or None: one experiment)."""
+    if data is not None and getattr(data, "n_experiments", 1) > 1:
+        b = np.asarray(data.bounds, dtype=np.int64)
+        if b[-1] == N:
+            return b
+    return np.array([0, N], dtype=np.int64)
+
+
+def complete_runs(ok, bounds):
+    """Sample offsets of the runs of ``ok`` samples inside each experiment.
+
+    Parameters
+    ----------
+    ok : ndarray of bool, shape (N,)
+        Samples whose every signal is measured.
+    bounds : ndarray of int, shape (E + 1,)
+        Experiment offsets.
+
+    Returns
+    -------
+    list of (int, int)
+        ``(start, stop)`` of each run (a run never crosses an experiment's end).
+    """
+    runs = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        seg = np.r_[False, ok[a:b], False].astype(np.int8)
+        d = np.diff(seg)
+        starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+        runs += [(int(a + s), int(a + e)) for s, e in zip(starts, stops)]
+    return runs
+
+
+def lfilter_segments(b, a, X, row_bounds):
+    """:func:`scipy.signal.lfilter` along axis 0, restarted (zero state) at each bound."""
+    if row_bounds is None or len(row_bounds) <= 2:
+        return signal.lfilter(b, a, X, axis=0)
+    out = np.empty(np.shape(X), dtype=np.float64)
+    for s, e in zip(row_bounds[:-1], row_bounds[1:]):
+        if e > s:
+            out[s:e] = signal.lfilter(b, a, X[s:e], axis=0)
+    return out
+
+
+def lagmat_segments(x, n, row_bounds):
+    """Columns x[t-1], …, x[t-n], zeros before the start of each segment."""
+    N = x.shape[0]
+    out = np.zeros((N, n))
+    bounds = [0, N] if row_bounds is None else row_bounds
+    for s, e in zip(bounds[:-1], bounds[1:]):
+        for j in range(1, min(n, e - s - 1) + 1):
+            out[s + j: e, j - 1] = x[s: e - j]
+    return out
+
+
+def per_segment(fn, runs, N, *arrays):
+    """``fn(*pieces)`` on each run ``(start, stop)`` of the arrays, NaN between the runs."""
+    out = np.full(N, np.nan)
+    for s, e in runs:
+        out[s:e] = np.asarray(fn(*(a[s:e] for a in arrays)), dtype=np.float64).reshape(-1)
+    return out
+
+
+def segment_record(y, U, runs, data=None):
+    """The runs of (y, U) as one merged IDData (names and dt of ``data``)."""
+    from ._iddata import IDData
+
+    kw = {} if data is None else {"dt": data.dt, "y_names": data.y_names[:1],
+                                  "u_names": data.u_names if U.shape[1] else None}
+    parts = [IDData(y[s:e], U[s:e] if U.shape[1] else None, **kw) for s, e in runs]
+    return parts[0].merge(*parts[1:])
