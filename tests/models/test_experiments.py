@@ -265,3 +265,66 @@ def test_bj_and_arma_run_per_experiment(rng):
     yg[700:705] = np.nan
     g = ARMA(1, 1).fit(yg)
     assert g.residuals.size == 699 + 794 and g.n_dropped == 6
+
+
+# --------------------------------------------- state space and NARX: as lists
+def _ss_records(rng, lengths=(800, 600)):
+    from adaptid.models import StateSpaceModel
+
+    true = StateSpaceModel([[0.9, 0.2], [0.0, 0.5]], [[1.0], [1.0]], [[1.0, 0.0]])
+    recs = []
+    for N in lengths:
+        u = rng.standard_normal((N, 1))
+        recs.append((true.simulate(u) + 0.01 * rng.standard_normal((N, 1)), u))
+    return recs
+
+
+def test_n4sid_and_okid_take_a_merged_record_as_its_experiments(rng):
+    from adaptid.models import n4sid, okid
+
+    recs = _ss_records(rng)
+    m = IDData(*recs[0]).merge(IDData(*recs[1]))
+    a = n4sid(m, 2, horizon=8)
+    b = n4sid([IDData(*r) for r in recs], 2, horizon=8)
+    assert a.info["experiments"] == 2
+    np.testing.assert_allclose(a.singular_values, b.singular_values, rtol=1e-12)
+    np.testing.assert_allclose(np.sort(a.poles().real), np.sort(b.poles().real), rtol=1e-10)
+    c = okid(m, 2, 10)
+    d = okid([IDData(*r) for r in recs], 2, 10)
+    np.testing.assert_allclose(np.sort(c.poles().real), np.sort(d.poles().real), rtol=1e-10)
+
+
+def test_n4sid_splits_a_record_at_nan_gaps(rng):
+    from adaptid.models import n4sid
+
+    recs = _ss_records(rng)
+    y = np.vstack([recs[0][0], np.full((3, 1), np.nan), recs[1][0]])
+    u = np.vstack([recs[0][1], np.zeros((3, 1)), recs[1][1]])
+    gap = n4sid((y, u), 2, horizon=8)
+    runs = n4sid(list(recs), 2, horizon=8)
+    assert gap.info["experiments"] == 2
+    np.testing.assert_allclose(gap.singular_values, runs.singular_values, rtol=1e-12)
+    # a run shorter than 2·horizon between two gaps is left out
+    y2 = np.vstack([recs[0][0], [[np.nan]], recs[1][0][:5], [[np.nan]], recs[1][0]])
+    u2 = np.vstack([recs[0][1], [[0.0]], recs[1][1][:5], [[0.0]], recs[1][1]])
+    short = n4sid((y2, u2), 2, horizon=8)
+    np.testing.assert_allclose(short.singular_values, runs.singular_values, rtol=1e-12)
+
+
+def test_narx_takes_a_merged_record_and_splits_at_gaps(rng):
+    from adaptid.models import NARX
+
+    recs = []
+    for N in (400, 300):
+        u = rng.uniform(-1, 1, N)
+        y = np.zeros(N)
+        for k in range(1, N):
+            y[k] = 0.5 * y[k - 1] + u[k - 1] + 0.2 * u[k - 1] ** 2
+        recs.append(IDData(y, u))
+    a = NARX(1, 1, 2, n_terms=3).fit(recs[0].merge(recs[1]))
+    b = NARX(1, 1, 2, n_terms=3).fit(recs)
+    np.testing.assert_allclose(a.theta, b.theta, rtol=1e-10)
+    y = np.r_[recs[0].y, np.nan, recs[1].y]
+    u = np.r_[recs[0].u, 0.0, recs[1].u]
+    c = NARX(1, 1, 2, n_terms=3).fit(y, u)
+    np.testing.assert_allclose(c.theta, b.theta, rtol=1e-10)

@@ -111,3 +111,23 @@ def segment_record(y, U, runs, data=None):
                                   "u_names": data.u_names if U.shape[1] else None}
     parts = [IDData(y[s:e], U[s:e] if U.shape[1] else None, **kw) for s, e in runs]
     return parts[0].merge(*parts[1:])
+
+
+def split_at_gaps(Y, U):
+    """The runs of complete rows of (Y (N, p), U (N, m)): a list of (Y_r, U_r)."""
+    ok = ~(np.isnan(Y).any(axis=1) | np.isnan(U).any(axis=1))
+    if ok.all():
+        return [(Y, U)]
+    return [(Y[a:b], U[a:b]) for a, b in complete_runs(ok, np.array([0, Y.shape[0]]))]
+
+
+def record_pieces(data):
+    """The experiments of an IDData, each split at its NaN gaps: a list of IDData."""
+    out = []
+    for part in data.experiments:
+        ok = ~(np.isnan(part.outputs).any(axis=1) | np.isnan(part.inputs).any(axis=1))
+        if ok.all():
+            out.append(part)
+        else:
+            out += [part[a:b] for a, b in complete_runs(ok, np.array([0, len(part)]))]
+    return out

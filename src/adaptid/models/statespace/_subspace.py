@@ -287,7 +287,12 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     data : IDData, (y, u) tuple of arrays (N, p), (N, m); or a list of them
         The record; a list holds several experiments with the same signals,
         whose Hankel columns are stacked (never across a boundary); each has
-        its own initial state. At least one input (time series: not yet).
+        its own initial state. A merged IDData (:meth:`IDData.merge`) is
+        its experiments; NaN samples split a record into the runs of
+        complete samples between them, each a separate experiment (runs
+        shorter than 2·horizon are left out; MATLAB's ``misdata``, which
+        fills the gaps from a model, is the alternative). At least one
+        input (time series: not yet).
     order : int, sequence of int, or None
         n. None: the index of the largest drop of the logarithm of the
         singular values among the first (horizon − 1)·p + 1 (a noise-free
@@ -351,6 +356,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     guess = 10 if order is None else max(np.ravel(order).tolist() or [1])
     i = (max(10, 2 * int(guess)) if horizon is None
          else check_int(horizon, "horizon", low=2))
+    ex = ex.without_short(2 * i)      # runs between NaN gaps too short for the Hankel blocks
     n_max = (i - 1) * p
     orders = None if order is None else _orders(order, n_max)
     cols = sum(max(N - 2 * i + 1, 0) for N in ex.lengths)
