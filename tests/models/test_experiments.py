@@ -328,3 +328,55 @@ def test_narx_takes_a_merged_record_and_splits_at_gaps(rng):
     u = np.r_[recs[0].u, 0.0, recs[1].u]
     c = NARX(1, 1, 2, n_terms=3).fit(y, u)
     np.testing.assert_allclose(c.theta, b.theta, rtol=1e-10)
+
+
+# ----------------------------------------------------------- compare, resid
+def test_compare_runs_each_experiment_from_rest(three):
+    from adaptid.models import ARX, compare
+
+    m = three[0].merge(*three[1:])
+    model = ARX(2, 2, 1).fit(three[0])
+    res = compare(m, model)
+    # oracle: lfilter of each experiment's input alone, from zero initial conditions
+    A, B = model.A, model.B
+    sims = [lfilter(B, A, e.u) for e in three]
+    np.testing.assert_allclose(res.y_hat[0], np.concatenate(sims), atol=1e-12)
+    y = m.y
+    fit = 100 * (1 - np.linalg.norm(y - res.y_hat[0]) / np.linalg.norm(y - y.mean()))
+    np.testing.assert_allclose(res.fit[0], fit, rtol=1e-12)
+    for k, e in enumerate(three):
+        np.testing.assert_allclose(res.fit_experiments[0, k], compare(e, model).fit[0], rtol=1e-12)
+    # a NaN gap: the simulation restarts after it, the gap is NaN and left out of the fit
+    yg, ug = m.experiment(0).y.copy(), m.experiment(0).u.copy()
+    ug[100:103] = np.nan
+    g = compare(IDData(yg, ug), model)
+    assert np.isnan(g.y_hat[0][100:103]).all()
+    np.testing.assert_allclose(g.y_hat[0][103:], lfilter(B, A, ug[103:]), atol=1e-12)
+
+
+def test_resid_pools_experiments_without_crossing_a_boundary(three):
+    from adaptid.models import ARX, resid
+
+    m = three[0].merge(*three[1:])
+    model = ARX(2, 2, 1).fit(m)
+    r = resid(m, model, max_lag=10)
+    s = 2      # the model's first row
+    parts = [(e.y - model.predict(e.y, e.u))[s:] for e in three]
+    np.testing.assert_allclose(r.e, np.concatenate(parts), atol=1e-12)
+    # oracle acf: the products inside each experiment, over the pooled variance
+    mean = np.concatenate(parts).mean()
+    c = [p - mean for p in parts]
+    ss = sum(p @ p for p in c)
+    acf = [sum(p[t:] @ p[:p.size - t] for p in c) / ss for t in range(11)]
+    np.testing.assert_allclose(r.autocorrelation["acf"], acf, rtol=1e-12)
+    N = sum(p.size for p in c)
+    q = N * (N + 2) * sum(acf[t] ** 2 / (N - t) for t in range(1, 11))
+    np.testing.assert_allclose(r.autocorrelation["q_stat"], q, rtol=1e-12)
+    # cross-correlation at lag 0 and 3 by hand
+    uc = [e.u[s:] - np.concatenate([x.u[s:] for x in three]).mean() for e in three]
+    den = np.sqrt(sum(x @ x for x in uc) * ss)
+    for lag in (0, 3):
+        cc = sum(p[lag:] @ x[:x.size - lag] for p, x in zip(c, uc)) / den
+        np.testing.assert_allclose(r.cross_correlation[0]["ccf"][10 + lag], cc, rtol=1e-12)
+    # the residuals' fit is also the model's own on the stacked rows
+    np.testing.assert_allclose(np.sort(r.e), np.sort(model.residuals), atol=1e-10)

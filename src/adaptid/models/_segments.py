@@ -131,3 +131,62 @@ def record_pieces(data):
         else:
             out += [part[a:b] for a, b in complete_runs(ok, np.array([0, len(part)]))]
     return out
+
+
+def record_runs(data):
+    """(start, stop) of the runs of complete samples inside each experiment of an IDData."""
+    ok = ~(np.isnan(data.outputs).any(axis=1) | np.isnan(data.inputs).any(axis=1))
+    return complete_runs(ok, data.bounds)
+
+
+def pooled_ljung_box(pieces, max_lag, alpha):
+    r""":func:`adaptid._teststats.ljung_box` of residuals in pieces, no product across two.
+
+    .. math::
+
+        r(\tau) = \frac{\sum_{p}\sum_{t>\tau}\tilde e^{(p)}_t\tilde e^{(p)}_{t-\tau}}
+                       {\sum_p\sum_t (\tilde e^{(p)}_t)^2},
+
+    :math:`\tilde e = e - \bar e` with the mean of all pieces, N the total
+    number of residuals in Q and the band; one piece gives ``ljung_box``.
+    """
+    from scipy import stats
+
+    from .._teststats import ljung_box
+
+    if len(pieces) == 1:
+        return ljung_box(pieces[0], max_lag, alpha)
+    mean = np.mean(np.concatenate(pieces))
+    ec = [p - mean for p in pieces]
+    ss = float(sum(p @ p for p in ec))
+    N = sum(p.size for p in ec)
+    acf = np.array([sum(p[tau:] @ p[:p.size - tau] for p in ec if p.size > tau) / ss
+                    for tau in range(max_lag + 1)])
+    taus = np.arange(1, max_lag + 1)
+    q = float(N * (N + 2) * np.sum(acf[1:] ** 2 / (N - taus)))
+    return {"acf": acf, "band": float(stats.norm.ppf(1 - alpha / 2) / np.sqrt(N)), "q_stat": q,
+            "dof": max_lag, "p_value": float(stats.chi2.sf(q, max_lag))}
+
+
+def pooled_cross_correlation(u_pieces, e_pieces, max_lag, alpha):
+    """:func:`adaptid._teststats.cross_correlation` in pieces, no product across two."""
+    from scipy import stats
+
+    from .._teststats import cross_correlation
+
+    if len(e_pieces) == 1:
+        return cross_correlation(u_pieces[0], e_pieces[0], max_lag, alpha)
+    mu, me = np.mean(np.concatenate(u_pieces)), np.mean(np.concatenate(e_pieces))
+    uc, ec = [u - mu for u in u_pieces], [e - me for e in e_pieces]
+    den = np.sqrt(sum(u @ u for u in uc) * sum(e @ e for e in ec))
+    N = sum(e.size for e in ec)
+    lags = np.arange(-max_lag, max_lag + 1)
+
+    def at(t):
+        return sum((e[t:] @ u[:e.size - t]) if t >= 0 else (e[:e.size + t] @ u[-t:])
+                   for u, e in zip(uc, ec) if e.size > abs(t)) / den
+
+    ccf = np.array([at(int(t)) for t in lags])
+    q = float(N * np.sum(ccf[max_lag:] ** 2))
+    return {"lags": lags, "ccf": ccf, "band": float(stats.norm.ppf(1 - alpha / 2) / np.sqrt(N)),
+            "q_stat": q, "dof": max_lag + 1, "p_value": float(stats.chi2.sf(q, max_lag + 1))}

@@ -7,9 +7,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._teststats import cross_correlation, fit_percent, ljung_box
+from .._teststats import fit_percent
 from .._validation import check_choice, check_int, check_scalar, param_error
 from ._iddata import as_record
+from ._segments import pooled_cross_correlation, pooled_ljung_box, record_runs
 
 __all__ = ["compare", "resid", "select_order", "CompareResult", "ResidResult", "OrderSelection"]
 
@@ -43,7 +44,7 @@ def _split_models(data, models):
 def _single_output(data, name="data"):
     if data.n_outputs != 1:
         raise param_error(name, "a record with one output", f"<{data.n_outputs} outputs>")
-    if not np.ptp(data.y) > 0:
+    if not np.nanmax(data.y) > np.nanmin(data.y):       # NaN: gaps
         raise param_error(name, "a record whose output is not constant", "<a constant output>")
 
 
@@ -65,6 +66,11 @@ class CompareResult:
     time : ndarray, shape (N,)
     k : int or None
     y_name : str
+    fit_experiments : ndarray, shape (n_models, n_experiments)
+        The fit of each model on each experiment of a merged record (one
+        column for one experiment). The outputs restart from zero initial
+        conditions at each experiment and after each NaN gap (NaN in the
+        gap, left out of the fit).
     """
 
     fit: np.ndarray
@@ -75,6 +81,7 @@ class CompareResult:
     k: int | None
     y_name: str
     figure: object = field(default=None, repr=False)
+    fit_experiments: np.ndarray = field(default=None, repr=False)
 
     def plot(self, *, ax=None, fig=None):
         """The figure (:func:`adaptid.plot.compare`)."""
@@ -103,6 +110,12 @@ def compare(data, *models, k=None, ax=None, names=None):
 
     in percent (MATLAB's NRMSE definition; 100 is a perfect model, 0 the
     mean of y).
+
+    A merged record (:meth:`IDData.merge`) is simulated or predicted
+    experiment by experiment, and a record with NaN samples run by run
+    between the gaps, each from zero initial conditions; the fit is then
+    over all measured samples, and ``fit_experiments`` gives it per
+    experiment.
 
     Parameters
     ----------
@@ -152,21 +165,41 @@ def compare(data, *models, k=None, ax=None, names=None):
         if len(names) != len(models):
             raise param_error("names", f"{len(models)} labels", f"<{len(names)} labels>")
     y, u = data.y, data.u
+    runs = record_runs(data)         # each experiment, split at NaN gaps: outputs restart
     outs = []
     for m in models:
-        if k is not None:
-            yh = m.predict(y, u, k=k)
-        elif getattr(m, "_simulate_needs_y0", False):  # NARX: starts from the measured outputs
-            yh = m.simulate(u, y0=y)
-        else:
-            yh = m.simulate(u)
-        outs.append(np.asarray(yh, dtype=np.float64).reshape(-1))
-    fit = np.array([fit_percent(y, yh) for yh in outs])
+        yh = np.full(len(data), np.nan)
+        for a, b in runs:
+            yh[a:b] = _compare_one(m, y[a:b], None if u is None else u[a:b], k)
+        outs.append(yh)
+    fit, per = _fits(y, outs, data.bounds)
     res = CompareResult(fit=fit, names=names, y_hat=outs, y=y, time=np.asarray(data.t), k=k,
-                        y_name=data.y_names[0])
+                        y_name=data.y_names[0], fit_experiments=per)
     if ax is not None:
         object.__setattr__(res, "figure", res.plot(ax=ax))
     return res
+
+
+def _compare_one(m, y, u, k):
+    """One model's output on one experiment (or run between gaps)."""
+    if k is not None:
+        yh = m.predict(y, u, k=k)
+    elif getattr(m, "_simulate_needs_y0", False):  # NARX: starts from the measured outputs
+        yh = m.simulate(u, y0=y)
+    else:
+        yh = m.simulate(u)
+    return np.asarray(yh, dtype=np.float64).reshape(-1)
+
+
+def _fits(y, outs, bounds):
+    """fit % of each output on the samples both measured and predicted; and per experiment."""
+    def fit(a, b, yh):
+        ok = np.isfinite(y[a:b]) & np.isfinite(yh[a:b])
+        return fit_percent(y[a:b][ok], yh[a:b][ok]) if ok.sum() > 1 else float("nan")
+
+    total = np.array([fit(0, y.size, yh) for yh in outs])
+    per = np.array([[fit(a, b, yh) for a, b in zip(bounds[:-1], bounds[1:])] for yh in outs])
+    return total, per
 
 
 # ----------------------------------------------------------------------- resid
@@ -177,7 +210,9 @@ class ResidResult:
     Attributes
     ----------
     e : ndarray, shape (N - start,)
-        One-step prediction errors on the record from sample ``start`` on.
+        One-step prediction errors on the record from sample ``start`` on
+        (for a merged record or one with NaN gaps: of each experiment and
+        each run between gaps from its sample ``start`` on, concatenated).
     start : int
         The first sample tested (the predictor's lags before it lie
         outside the record).
@@ -243,6 +278,13 @@ def resid(data, *models, max_lag=25, alpha=0.01, ax=None, start=None):
     :func:`~adaptid.diagnostics.cross_correlation_test`; Ljung 1999, sec. 16.6).
     MATLAB's ``resid`` draws a 99 % band, hence ``alpha=0.01``.
 
+    A merged record (:meth:`IDData.merge`) is predicted experiment by
+    experiment, and a record with NaN samples run by run between the gaps,
+    each from zero initial conditions with its first ``start`` errors left
+    out; the correlations sum the products inside each piece only (none
+    across a boundary) over the pooled variance, with N the total number
+    of errors.
+
     Parameters
     ----------
     data : IDData, (y, u) tuple, DataFrame (output column first) or Series
@@ -288,17 +330,25 @@ def _resid_one(data, model, *, max_lag, alpha, ax, start):
         idx = getattr(model, "index", None)
         start = int(np.asarray(idx)[0]) if idx is not None and np.size(idx) else 0
     start = check_int(start, "start", low=0, high=len(data) - 3)
-    N = len(data) - start
-    max_lag = check_int(max_lag, "max_lag", low=1, high=N - 1)
     y, u = data.y, data.u
-    e = (y - np.asarray(model.predict(y, u, k=1), dtype=np.float64).reshape(-1))[start:]
+    # each experiment (and run between NaN gaps) from zero initial conditions, its first
+    # `start` errors left out; the tests pool the pieces without a product across two
+    pieces = [(a, b) for a, b in record_runs(data) if b - a > start]
+    e_parts = []
+    for a, b in pieces:
+        yh = model.predict(y[a:b], None if u is None else u[a:b], k=1)
+        e_parts.append((y[a:b] - np.asarray(yh, dtype=np.float64).reshape(-1))[start:])
+    e = np.concatenate(e_parts) if e_parts else np.zeros(0)
+    N = e.size
+    max_lag = check_int(max_lag, "max_lag", low=1, high=max(N - 1, 1))
     if not np.ptp(e) > 0:
         raise param_error("model", "a model whose residuals on data are not constant",
                           "<constant residuals>")
-    ac = ljung_box(e, max_lag, alpha)
-    U = data.inputs[start:]
-    cc = [cross_correlation(U[:, j], e, max_lag, alpha) for j in range(data.n_inputs)
-          if np.ptp(U[:, j]) > 0]
+    ac = pooled_ljung_box(e_parts, max_lag, alpha)
+    U_parts = [data.inputs[a + start:b] for a, b in pieces]
+    U = np.concatenate(U_parts) if U_parts else data.inputs[:0]
+    cc = [pooled_cross_correlation([p[:, j] for p in U_parts], e_parts, max_lag, alpha)
+          for j in range(data.n_inputs) if np.ptp(U[:, j]) > 0]
     res = ResidResult(e=e, start=start, autocorrelation=ac, cross_correlation=cc, alpha=alpha,
                       y_name=data.y_names[0],
                       u_names=tuple(n for j, n in enumerate(data.u_names) if np.ptp(U[:, j]) > 0))
