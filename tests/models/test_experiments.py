@@ -380,3 +380,65 @@ def test_resid_pools_experiments_without_crossing_a_boundary(three):
         np.testing.assert_allclose(r.cross_correlation[0]["ccf"][10 + lag], cc, rtol=1e-12)
     # the residuals' fit is also the model's own on the stacked rows
     np.testing.assert_allclose(np.sort(r.e), np.sort(model.residuals), atol=1e-10)
+
+
+# ----------------------------------------------- IV and regularised estimates
+def _iv_rows(y, u, na, nb, nk):
+    Phi, t = _rows_by_hand(y, u, na, nb, nk)
+    Phi[:, :na] *= -1
+    return Phi, t
+
+
+def test_ivx_and_iv4_form_rows_and_filters_inside_each_experiment(three):
+    from adaptid.models import iv4, ivx
+
+    m = three[0].merge(*three[1:])
+    na, nb, nk = 2, 2, 1
+    xs = [lfilter([0, 1.0, 0.5], [1, -1.5, 0.7], e.u) for e in three]
+    mx = ivx(m, na, nb, nk, np.concatenate(xs))
+    Phi = np.vstack([_iv_rows(e.y, e.u, na, nb, nk)[0] for e in three])
+    t = np.concatenate([_iv_rows(e.y, e.u, na, nb, nk)[1] for e in three])
+    Z = np.vstack([_iv_rows(x, e.u, na, nb, nk)[0] for x, e in zip(xs, three)])
+    np.testing.assert_allclose(mx.theta, np.linalg.solve(Z.T @ Phi, Z.T @ t), rtol=1e-10)
+    # iv4, its four stages in NumPy, experiment by experiment
+    th = np.linalg.lstsq(Phi, t, rcond=None)[0]
+
+    def iv_step(theta, recs):
+        A, B = np.r_[1.0, theta[:na]], np.r_[np.zeros(nk), theta[na:]]
+        Zs = np.vstack([_iv_rows(lfilter(B, A, u), u, na, nb, nk)[0] for y, u in recs])
+        P = np.vstack([_iv_rows(y, u, na, nb, nk)[0] for y, u in recs])
+        tt = np.concatenate([_iv_rows(y, u, na, nb, nk)[1] for y, u in recs])
+        return np.linalg.solve(Zs.T @ P, Zs.T @ tt)
+
+    recs = [(e.y, e.u) for e in three]
+    th2 = iv_step(th, recs)
+    nl = na + nb
+    vs = [tt - P @ th2 for P, tt in (_iv_rows(y, u, na, nb, nk) for y, u in recs)]
+    V = np.vstack([np.column_stack([v[nl - j - 1: v.size - j - 1] for j in range(nl)]) for v in vs])
+    ell = np.linalg.lstsq(-V, np.concatenate([v[nl:] for v in vs]), rcond=None)[0]
+    L = np.r_[1.0, ell]
+    # stage 4: instruments of the stage-2 model on the unfiltered u, then everything by L
+    A2, B2 = np.r_[1.0, th2[:na]], np.r_[np.zeros(nk), th2[na:]]
+    P4 = np.vstack([_iv_rows(lfilter(L, 1, y), lfilter(L, 1, u), na, nb, nk)[0] for y, u in recs])
+    t4 = np.concatenate([_iv_rows(lfilter(L, 1, y), lfilter(L, 1, u), na, nb, nk)[1]
+                         for y, u in recs])
+    Z4 = np.vstack([_iv_rows(lfilter(L, 1, lfilter(B2, A2, u)), lfilter(L, 1, u), na, nb, nk)[0]
+                    for y, u in recs])
+    m4 = iv4(m, na, nb, nk)
+    np.testing.assert_allclose(m4.prefilter, L, rtol=1e-10)
+    np.testing.assert_allclose(m4.theta, np.linalg.solve(Z4.T @ P4, Z4.T @ t4), rtol=1e-9)
+
+
+def test_impulseest_stacks_each_experiments_fir_rows(three):
+    from adaptid.models import impulseest
+
+    m = three[0].merge(*three[1:])
+    n, s2 = 15, 0.01
+    est = impulseest(m, n, nk=1, hyperparameters=(1.0, 0.8), noise_variance=s2)
+    Phi = np.vstack([_rows_by_hand(e.y, e.u, 0, n, 1)[0] for e in three])
+    t = np.concatenate([_rows_by_hand(e.y, e.u, 0, n, 1)[1] for e in three])
+    # the regularised solution for the model's prior P (its kernel is tested elsewhere):
+    # θ = P Φᵀ (Φ P Φᵀ + σ² I)⁻¹ y, here through the equivalent (ΦᵀΦ + σ² P⁻¹) θ = Φᵀ y
+    P = est.prior
+    theta = np.linalg.solve(Phi.T @ Phi + s2 * np.linalg.inv(P), Phi.T @ t)
+    np.testing.assert_allclose(est.theta, theta, rtol=1e-6, atol=1e-9)

@@ -121,6 +121,7 @@ class _PolyModel(FrequencyMethods):
             if getattr(self, "_nan_policy", "omit") == "raise":
                 refuse_nan((y, U), ("y", "u"))
             self._fit_bounds = bounds
+            self._fit_pieces = None
             ok = ~(np.isnan(y) | np.isnan(U).any(axis=1))
             self._fit_runs = complete_runs(ok, bounds)
             self._set_inputs(U.shape[1], single)
@@ -187,7 +188,9 @@ class _PolyModel(FrequencyMethods):
         bounds = getattr(self, "_fit_bounds", None)
         if bounds is None or bounds[-1] != N:
             bounds = np.array([0, N])
-        pieces = self._pieces(y, U, bounds)
+        pieces = getattr(self, "_fit_pieces", None) if self._splits_at_gaps else None
+        if pieces is None or pieces[-1][1] > N:     # (kept: instrument rows on the same runs)
+            pieces = self._pieces(y, U, bounds)
         self._fit_pieces = pieces
         Us = [U[a:b, 0] if single else U[a:b] for a, b in pieces]
         if len(pieces) == 1 and pieces[0] == (0, N):
