@@ -7,6 +7,7 @@ import numpy as np
 from ..._lazy import lazy
 from ..._validation import check_choice, check_int, param_error
 from ._model import StateSpaceModel
+from ._dask import dask_experiments, is_dask, lq_factor_dask
 from ._signals import experiments, recurse
 
 sla = lazy("scipy.linalg")  # imported on first use, as scipy.signal elsewhere
@@ -316,7 +317,13 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
         complete samples between them, each a separate experiment (runs
         shorter than 2·horizon are left out; MATLAB's ``misdata``, which
         fills the gaps from a model, is the alternative). At least one
-        input (time series: not yet).
+        input (time series: not yet). Dask data (a ``(y, u)`` pair of
+        Dask arrays, Series or DataFrames, or one Dask DataFrame whose
+        first column is the output) is one experiment larger than memory:
+        the R factor of the block-Hankel matrix comes from Dask's
+        tall-skinny QR over blocks formed per chunk (with an overlap of
+        2·horizon − 1 samples), the rest from one ordered pass over the
+        chunks; ``order`` is then an integer or None.
     order : int, sequence of int, or None
         n. None: the index of the largest drop of the logarithm of the
         singular values among the first (horizon − 1)·p + 1 (a noise-free
@@ -375,7 +382,11 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     True
     """
     method = check_choice(method, "method", ("moesp", "n4sid", "cva"))
-    ex = experiments(data)
+    on_dask = is_dask(data)
+    ex = dask_experiments(data) if on_dask else experiments(data)
+    if on_dask and order is not None and np.ndim(order) != 0:
+        raise param_error("order", "an integer or None for Dask data (a range compares the "
+                          "orders' prediction errors in memory)", order)
     p, m = ex.p, ex.m
     guess = 10 if order is None else max(np.ravel(order).tolist() or [1])
     i = (max(10, 2 * int(guess)) if horizon is None
@@ -387,7 +398,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     if cols < 2 * i * (m + p) or min(ex.lengths) < 2 * i:
         raise param_error("data", f"at least 2·horizon = {2 * i} samples per experiment and "
                           f"{2 * i * (m + p)} Hankel columns in all", f"<{cols} columns>")
-    L, _ = _lq_factor(ex, i)
+    L, _ = lq_factor_dask(ex, i, _hankel_chunk) if on_dask else _lq_factor(ex, i)
     Ob, W1inv, Z = _weighted(_blocks(L, m, p, i), method)
     U1, sv, _ = sla.svd(Ob, full_matrices=False, check_finite=False)
     info = {"method": method, "horizon": i, "samples": sum(ex.lengths),
@@ -401,7 +412,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
         mdl = StateSpaceModel(A, B, C, D, K, noise_cov=Se, dt=ex.dt, y_names=ex.y_names,
                               u_names=ex.u_names, singular_values=sv,
                               info=dict(info, x0=x0))
-        mdl._fit_data = ex
+        mdl._fit_data = None if on_dask else ex
         models.append(mdl)
     if len(models) == 1:
         return models[0]
