@@ -127,6 +127,13 @@ def test_arx_fit_of_merged_records_is_lstsq_on_stacked_rows(three):
     np.testing.assert_allclose(model.theta, theta, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(model.residuals, target - Phi @ theta, atol=1e-10)
     assert model.n_experiments == 3 and model.n_dropped == 0
+    st = model.summary().stats
+    assert st["experiments"] == 3 and "rows left out (NaN)" not in st
+    # its fit % is the one-step prediction of each experiment from rest (oracle: lfilter)
+    y1 = np.concatenate([lfilter(-np.r_[0.0, model.A[1:]], [1.0], e.y)
+                         + lfilter(model.B, [1.0], e.u) for e in three])
+    fit = 100 * (1 - np.linalg.norm(m.y - y1) / np.linalg.norm(m.y - m.y.mean()))
+    np.testing.assert_allclose(st["fit % (1-step, estimation)"], fit, rtol=1e-10)
     # the concatenated record would have 2 more rows (lags across the two boundaries)
     assert ARX(2, 2, 1).fit(m.y, m.u).residuals.size == model.residuals.size + 4
     # the recursive fit runs over the same stacked rows
@@ -165,8 +172,6 @@ def test_arx_leaves_out_the_rows_that_touch_a_nan(rng):
 # ------------------------------------------------------- filter-based models
 def _armax_errors(theta, recs, na, nb, nc, nk):
     """Oracle: per experiment, ε = (A y − B u)/C on the rows k ≥ s, filters from zero."""
-    from scipy.optimize import least_squares  # noqa: F401  (used by the callers)
-
     a, b, c = theta[:na], theta[na: na + nb], theta[na + nb:]
     s = max(na, nk + nb - 1)
     out = []
@@ -442,3 +447,22 @@ def test_impulseest_stacks_each_experiments_fir_rows(three):
     P = est.prior
     theta = np.linalg.solve(Phi.T @ Phi + s2 * np.linalg.inv(P), Phi.T @ t)
     np.testing.assert_allclose(est.theta, theta, rtol=1e-6, atol=1e-9)
+
+
+def test_select_order_stacks_each_experiments_rows(three):
+    from adaptid.models import select_order
+
+    m = three[0].merge(*three[1:])
+    sel = select_order(m, na=[1, 2], nb=[1, 2], nk=[1, 2])
+    s = 3                     # the common first row: max(na) = 2, max(nk) + max(nb) - 1 = 3
+    rows = [np.arange(s, len(e)) for e in three]
+    Phi = np.vstack([np.column_stack([-e.y[r - 1], -e.y[r - 2], e.u[r - 1], e.u[r - 2]])
+                     for e, r in zip(three, rows)])
+    t = np.concatenate([e.y[r] for e, r in zip(three, rows)])
+    res = t - Phi @ np.linalg.lstsq(Phi, t, rcond=None)[0]
+    i = int(np.flatnonzero((sel.table["na"] == 2) & (sel.table["nb"] == 2)
+                           & (sel.table["nk"] == 1))[0])
+    np.testing.assert_allclose(sel.table["loss"][i], res @ res / t.size, rtol=1e-10)
+    # model() fits the same rows of each experiment
+    model = sel.model((2, 2, 1))
+    assert model.residuals.size == t.size and model.n_experiments == 3

@@ -139,6 +139,9 @@ class IDData(ExperimentsMixin):
         Outputs. A pandas object gives the names and, unless it is the
         default range 0..N−1, its index gives ``time``. One output may come
         as a column (N, 1); :attr:`y` is then 1-D, as for shape (N,).
+        NaN marks a missing sample (a gap, in ``u`` too): the fits leave
+        out the rows that touch it or split the record there (see their
+        ``nan_policy``); infinity is refused.
     u : array_like, shape (N,) or (N, m); pandas; or None
         Inputs (None: a time series without input). If ``y`` has no time
         index, a pandas ``u``'s index gives ``time``.
@@ -182,6 +185,11 @@ class IDData(ExperimentsMixin):
 
     Notes
     -----
+    Several experiments of the same signals are one record by
+    :meth:`merge`; they stay apart (:attr:`n_experiments`,
+    :meth:`experiment`), and no model forms a regressor across the boundary
+    between two of them.
+
     The sample time comes from the first of these that exists:
 
     1. ``dt`` as given;

@@ -409,7 +409,8 @@ class OrderSelection:
 
         na, nb, nk = self.best if order is None else tuple(int(v) for v in order)
         own = max(na, nk + nb - 1)
-        return ARX(na, nb, nk).fit(self.data[self.start - own:])
+        parts = [e[self.start - own:] for e in self.data.experiments]   # each experiment's rows
+        return ARX(na, nb, nk).fit(parts[0].merge(*parts[1:]))
 
     def __repr__(self):
         return f"OrderSelection(best (na, nb, nk)={self.best}, criterion={self.criterion!r})"
@@ -467,7 +468,9 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
     data : IDData, (y, u) tuple, DataFrame (output column first), or y
         Estimation record, one output and one input; arrays may come as
         two arguments ``select_order(y, u, ...)`` (the one input
-        convention of the models' ``fit``).
+        convention of the models' ``fit``). A merged record gives the
+        rows of each experiment (from its sample s on), stacked; rows that
+        touch a NaN are left out.
     u : array_like or pandas, optional
         The input when ``data`` is the output.
     na, nb, nk : int or sequence of int
@@ -512,29 +515,35 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
         _single_output(val, "validation")
         if val.n_inputs != 1:
             raise param_error("validation", "a record with one input", f"<{val.n_inputs} inputs>")
-    y, u = data.y, data.u
-    N = y.size
+    N = min(len(e) for e in data.experiments)
     na_max, nk_min, ulag_max = max(nas), min(nks), max(nks) + max(nbs) - 1
     s = max(na_max, ulag_max)
     if N - s <= max(nas) + max(nbs):
         need = s + na_max + max(nbs)
         raise param_error("data", f"longer than the largest structure needs (> {need} samples)",
                           f"<{N} samples>")
-    if val is not None and len(val) <= s:
+    if val is not None and min(len(e) for e in val.experiments) <= s:
         raise param_error("validation", f"longer than the largest lag (> {s} samples)",
                           f"<{len(val)} samples>")
 
-    def shared(y, u):
-        """The shared regressor matrix: -y lags 1..na_max, then u lags nk_min..ulag_max."""
-        rows = np.arange(s, y.size)
-        Y_cols = (np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max
-                  else np.zeros((rows.size, 0)))
-        U_cols = np.column_stack([u[rows - j] for j in range(nk_min, ulag_max + 1)])
-        return Y_cols, U_cols, y[rows]
+    def shared(rec):
+        """The shared regressor matrix: -y lags 1..na_max, then u lags nk_min..ulag_max,
+        rows inside each experiment, those touching a NaN left out."""
+        blocks = []
+        for e in rec.experiments:
+            y, u = e.y, e.u
+            rows = np.arange(s, y.size)
+            Y_cols = (np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max
+                      else np.zeros((rows.size, 0)))
+            U_cols = np.column_stack([u[rows - j] for j in range(nk_min, ulag_max + 1)])
+            keep = np.isfinite(Y_cols).all(axis=1) & np.isfinite(U_cols).all(axis=1) \
+                & np.isfinite(y[rows])
+            blocks.append((Y_cols[keep], U_cols[keep], y[rows][keep]))
+        return tuple(np.concatenate([b[j] for b in blocks]) for j in range(3))
 
-    Y_cols, U_cols, target = shared(y, u)
+    Y_cols, U_cols, target = shared(data)
     if val is not None:
-        Yv_cols, Uv_cols, target_v = shared(val.y, val.u)
+        Yv_cols, Uv_cols, target_v = shared(val)
     n_rows = target.size
     out = {key: [] for key in ("na", "nb", "nk", "n_params", "loss", "aic", "fpe", "fit_validation")}
     for a, b, k in itertools.product(nas, nbs, nks):
@@ -553,7 +562,11 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
             loss = float(e_v @ e_v) / e_v.size
             A = np.concatenate([[1.0], th[:a]])
             B = np.concatenate([np.zeros(k), th[a:]])
-            fv = fit_percent(val.y, lfilter(B, A, val.u))
+            sim = np.full(len(val), np.nan)
+            for p, q in record_runs(val):            # each experiment, restarted after gaps
+                sim[p:q] = lfilter(B, A, val.u[p:q])
+            ok = np.isfinite(sim) & np.isfinite(val.y)
+            fv = fit_percent(val.y[ok], sim[ok])
         for key, v in zip(out, (a, b, k, d, loss, aic, fpe, fv)):
             out[key].append(v)
     table = {key: np.asarray(v) for key, v in out.items()}
