@@ -466,3 +466,14 @@ def test_select_order_stacks_each_experiments_rows(three):
     # model() fits the same rows of each experiment
     model = sel.model((2, 2, 1))
     assert model.residuals.size == t.size and model.n_experiments == 3
+
+
+def test_sindy_refuses_a_merged_record_and_gaps(three):
+    from adaptid.models import SINDy
+
+    with pytest.raises(ValueError, match="X must be an IDData of one experiment"):
+        SINDy().fit(three[0].merge(three[1]))
+    y = three[0].y.copy()
+    y[3] = np.nan
+    with pytest.raises(ValueError, match="X must be finite"):
+        SINDy().fit(IDData(y, three[0].u))
