@@ -477,3 +477,14 @@ def test_sindy_refuses_a_merged_record_and_gaps(three):
     y[3] = np.nan
     with pytest.raises(ValueError, match="X must be finite"):
         SINDy().fit(IDData(y, three[0].u))
+
+
+def test_spectral_estimates_refuse_a_merged_record_and_gaps(three):
+    from adaptid.models import etfe, spa
+
+    with pytest.raises(ValueError, match="data must be one experiment"):
+        spa(three[0].merge(three[1]))
+    y = three[0].y.copy()
+    y[3] = np.nan
+    with pytest.raises(ValueError, match="y must be finite"):
+        etfe(IDData(y, three[0].u))
