@@ -71,6 +71,12 @@ def test_merge_frame_split_detrend(three):
     for e in range(2):    # oracle: each experiment's own detrend
         np.testing.assert_allclose(dd.experiment(e).y, three[e].detrend("linear").y, atol=1e-12)
     np.testing.assert_allclose(dd.retrend(dd.y), m.y, atol=1e-12)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    fig = m.plot()
+    assert len(fig.axes[0].lines) == 2       # one line per experiment, on its own time axis
+    np.testing.assert_allclose(fig.axes[0].lines[1].get_xdata(), three[1].t)
 
 
 def test_nan_samples_are_kept_and_detrended_around(rng):

@@ -176,6 +176,7 @@ class ARX(_PolyModel):
         from ..estimators import RLS, KalmanRLS, SlidingWindowRLS, recursive_fit_stats
         from .._validation import param_error
 
+        self._nan_policy = "omit"           # rows that touch a NaN left out (see fit)
         reg, Phi = self._prepare(y, u)
         d = Phi.shape[1]
         if estimator is None:

@@ -149,6 +149,7 @@ class _PseudoLinearModel(_PolyModel):
             takes the final estimate; ``cov`` is the prediction-error
             covariance at it.
         """
+        self._nan_policy = "omit"           # rows that touch a NaN left out (see fit)
         reg, Phi_fix = self._prepare(y, u)
         if len(self._row_bounds) > 2:
             from .._validation import param_error

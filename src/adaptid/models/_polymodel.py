@@ -100,12 +100,12 @@ class _PolyModel(FrequencyMethods):
     def _record_signals(self, y, u, *, fitting=False):
         """(y (N,), U (N, m), experiment bounds (E + 1,)) of a record; NaN (gaps) allowed.
 
-        At fit time the number of inputs, the names, ``dt``, the experiment
-        bounds and the runs of complete samples (:mod:`._segments`) are fixed;
-        ``nan_policy="raise"`` refuses a NaN there.
+        At fit time the number of inputs, the names, ``dt`` and the
+        experiment bounds (:mod:`._segments`) are fixed; ``nan_policy="raise"``
+        refuses a NaN there.
         """
         from ._iddata import as_signals
-        from ._segments import complete_runs, record_bounds, refuse_nan
+        from ._segments import record_bounds, refuse_nan
 
         y, u, data = as_signals(y, u)
         if u is None and self._needs_input:
@@ -122,8 +122,6 @@ class _PolyModel(FrequencyMethods):
                 refuse_nan((y, U), ("y", "u"))
             self._fit_bounds = bounds
             self._fit_pieces = None
-            ok = ~(np.isnan(y) | np.isnan(U).any(axis=1))
-            self._fit_runs = complete_runs(ok, bounds)
             self._set_inputs(U.shape[1], single)
             if data is not None:
                 self.y_name, self.u_names = data.y_names[0], data.u_names
