@@ -494,3 +494,7 @@ def test_spectral_estimates_refuse_a_merged_record_and_gaps(three):
     y[3] = np.nan
     with pytest.raises(ValueError, match="y must be finite"):
         etfe(IDData(y, three[0].u))
+    from adaptid.models import tfest
+
+    with pytest.raises(ValueError, match="data must be one experiment without NaN gaps"):
+        tfest(three[0].merge(three[1]), 2)
