@@ -168,6 +168,18 @@ def t_n4sid(outs, jsons):
                     f"{r['ratio']:.0f} ×", f"{r['adaptid_error']:.2e} / {r['nfoursid_error']:.2e}")])
 
 
+def t_n4sid_memory(outs, jsons):
+    r = jsons[0]
+    rows = [(f"{r['N']}, {r['horizon']}", "in memory", f"{r['memory_s']:.1f}",
+             f"{r['memory_peak_MB']:.0f}", f"{r['memory_peak_MB'] / r['data_matrix_MB']:.2f}")]
+    if "dask_s" in r:
+        rows.append((f"{r['N']}, {r['horizon']}", f"Dask, chunks of {r['dask_chunk']}",
+                     f"{r['dask_s']:.1f}", f"{r['dask_peak_MB']:.0f}",
+                     f"{r['dask_peak_MB'] / r['data_matrix_MB']:.2f}"))
+    return _table(("N, horizon", "n4sid", "time, s", "peak, MB",
+                   f"peak ÷ data matrix ({r['data_matrix_MB']:.0f} MB)"), rows)
+
+
 def t_frols(outs, jsons):
     r = jsons[0]
     rows = [(f"{r['N']}, {r['candidates']}, {r['terms']}", f"{r['adaptid_s']:.3f}",
@@ -242,6 +254,11 @@ BENCHES = {
                    "n4sid against nfoursid (2 in, 2 out, order 4, horizon 10, N = 20 000)",
                    smoke=[["--n", "1000", "--repeat", "1", "--json", "{json}"]],
                    modules=("nfoursid", "pandas"), tools=()),
+    "n4sid_memory": Bench("bench_n4sid_memory.py", [({}, ["--dask", "--json", "{json}"])],
+                          t_n4sid_memory,
+                          "n4sid peak memory at N = 10⁶ (horizon 10), in memory and on Dask",
+                          smoke=[["--n", "3000", "--chunk", "1000", "--dask", "--json", "{json}"]],
+                          modules=("dask",), tools=()),
 
 
     "frols": Bench("bench_frols.py", [({}, ["--large", "--json", "{json}"])], t_frols,

@@ -27,7 +27,7 @@ class _TimeSeries:
     def _no_input(y):
         from ._iddata import _squeeze_column
 
-        y = as_float_array(_squeeze_column(np.asarray(y)), "y", ndim=1)
+        y = as_float_array(_squeeze_column(np.asarray(y)), "y", ndim=1, allow_nan=True)
         return y, np.zeros(y.shape[0])
 
     @staticmethod
@@ -84,6 +84,10 @@ class _TimeSeries:
 
             raise param_error("u", "None (a time-series model has no input)", "<an input>",
                               exc=TypeError)
+        from ._iddata import IDData
+
+        if isinstance(y, IDData):       # a record (merged: predicted experiment by experiment)
+            return super().predict(self._record(y)[0], k=k)
         y, u = self._no_input(y)
         return super().predict(y, u, k=k)
 
@@ -107,8 +111,10 @@ class _TimeSeries:
         """Normalised fit (NRMSE, percent) of the k-step prediction (default k = 1)."""
         from .._teststats import fit_percent
 
-        y = as_float_array(y, "y", ndim=1)
-        return fit_percent(y, self.predict(y, k=check_int(k, "k", low=1)))
+        y = as_float_array(y, "y", ndim=1, allow_nan=True)
+        y_hat = self.predict(y, k=check_int(k, "k", low=1))
+        ok = np.isfinite(y) & np.isfinite(y_hat)
+        return fit_percent(y[ok], y_hat[ok])
 
     def to_control(self, form="tf"):
         r"""The noise model :math:`H = C(q)/A(q)` (input e, output y) as a python-control system.
@@ -205,19 +211,23 @@ class AR(_TimeSeries, ARX):
     def __init__(self, na, *, dt=1.0):
         super().__init__(check_int(na, "na", low=1), 0, 1, dt=dt)
 
-    def fit(self, y):
+    def fit(self, y, *, nan_policy="omit"):
         r"""Least-squares fit (QR, :func:`adaptid.lstsq`) on the rows k = n_a … N-1.
 
         Parameters
         ----------
         y : array_like, shape (N,); pandas Series; or IDData without inputs
-            A pandas or IDData record gives the model its name and ``dt``.
+            A pandas or IDData record gives the model its name and ``dt``;
+            a merged IDData gives each experiment's rows, stacked.
+        nan_policy : {"omit", "raise"}
+            As :meth:`ARX.fit`: the rows that touch a NaN are left out, or
+            a NaN is refused.
 
         Returns
         -------
         self
         """
-        return super().fit(*self._record(y))
+        return super().fit(*self._record(y), nan_policy=nan_policy)
 
     def fit_recursive(self, y, estimator=None):
         r"""Recursive least squares with a core estimator (MATLAB's ``recursiveAR``).
@@ -298,7 +308,7 @@ class ARMA(_TimeSeries, ARMAX):
     def __init__(self, na, nc, *, dt=1.0):
         super().__init__(check_int(na, "na", low=1), 0, nc, 1, dt=dt)
 
-    def fit(self, y, *, refine=True, arx_order=None):
+    def fit(self, y, *, refine=True, arx_order=None, nan_policy="omit"):
         r"""Hannan–Rissanen, then (``refine=True``, default) prediction-error minimisation.
 
         Parameters
@@ -309,12 +319,16 @@ class ARMA(_TimeSeries, ARMAX):
             Hannan–Rissanen estimate (default True).
         arx_order : int, optional
             Order of the long AR model (see :meth:`ARMAX.fit`).
+        nan_policy : {"omit", "raise"}
+            As :meth:`ARMAX.fit`: the record is split at each NaN run into
+            separate experiments, or a NaN is refused.
 
         Returns
         -------
         self
         """
-        return super().fit(*self._record(y), refine=refine, arx_order=arx_order)
+        return super().fit(*self._record(y), refine=refine, arx_order=arx_order,
+                           nan_policy=nan_policy)
 
     def fit_recursive(self, y, estimator=None, *, refine=False):
         r"""Recursive extended least squares (MATLAB's ``recursiveARMA``), one compiled pass.

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_int
-from ._pem import _PseudoLinearModel, lagmat, stabilize
+from ._pem import _PseudoLinearModel, stabilize
 
 __all__ = ["ARMAX"]
 
@@ -88,7 +88,7 @@ class ARMAX(_PseudoLinearModel):
         nab = Phi_fix.shape[1]
         C = np.concatenate([[1.0], theta[nab:]])
         eps = self._filt(C, Y - Phi_fix @ theta[:nab])
-        Phi = np.hstack([Phi_fix, lagmat(eps, self.nc)])
+        Phi = np.hstack([Phi_fix, self._lag(eps, self.nc)])
         return eps, self._filt(C, Phi)
 
     def _stable(self, theta):
@@ -97,7 +97,7 @@ class ARMAX(_PseudoLinearModel):
         theta[nab:] = stabilize(np.concatenate([[1.0], theta[nab:]]))[1:]
         return theta
 
-    def fit(self, y, u=None, *, refine=True, arx_order=None):
+    def fit(self, y, u=None, *, refine=True, arx_order=None, nan_policy="omit"):
         r"""Batch fit: the Hannan–Rissanen three-stage least squares, then prediction-error refinement.
 
         1. a long ARX model, fitted by least squares, gives residuals
@@ -122,6 +122,11 @@ class ARMAX(_PseudoLinearModel):
         arx_order : int, optional
             Order of the long ARX model for the initial residuals (default
             ``max(20, 3 (na + nc))``, capped by the record length).
+        nan_policy : {"omit", "raise"}
+            ``"omit"`` (default): NaN samples are gaps: the record is split at each run of NaN into separate experiments (the filters restart after each gap)
+            (``n_dropped`` counts the rows lost, and ``summary()`` reports
+            it). ``"raise"``: a NaN in y or u is refused (ValueError naming
+            the signal).
 
         Returns
         -------
@@ -129,6 +134,9 @@ class ARMAX(_PseudoLinearModel):
         """
         from .._lstsq import lstsq
 
+        from ._segments import check_nan_policy
+
+        self._nan_policy = check_nan_policy(nan_policy)
         y, U = self._data(y, u, fitting=True)
         reg, Phi_fix = self._fixed_regression(y, U, self._single)
         Y = reg.y
@@ -139,15 +147,20 @@ class ARMAX(_PseudoLinearModel):
 
             L = max(20, 3 * (self.na + self.nc)) if arx_order is None else \
                 check_int(arx_order, "arx_order", low=1)
-            L = max(1, min(L, y.size // (4 * (1 + self._m))))
-            # long ARX: its residuals approximate the innovations (Hannan-Rissanen)
-            regL = arx_regressors(y, U[:, 0] if self._single else U, L,
+            ys, Us, sb = self._segment_signals(y, U)
+            longest = int(np.max(np.diff(sb)))
+            L = max(1, min(L, longest // (4 * (1 + self._m))))
+            # long ARX: its residuals approximate the innovations (Hannan-Rissanen),
+            # formed inside each experiment and run between gaps
+            pieces = [(ys[a:b], Us[a:b, 0] if self._single else Us[a:b])
+                      for a, b in zip(sb[:-1], sb[1:])]
+            regL = arx_regressors([p[0] for p in pieces], [p[1] for p in pieces], L,
                                   [b + L if b else 0 for b in self._nb], self._nk)
             resL = lstsq(regL.Phi, regL.y)
-            eps_full = np.zeros(y.size)
+            eps_full = np.zeros(ys.size)
             eps_full[regL.index] = np.asarray(resL.residuals)
-            eps = eps_full[reg.index]
-            Phi = np.hstack([Phi_fix, lagmat(eps, self.nc)])
+            eps = eps_full[reg.meta["seg_index"]]
+            Phi = np.hstack([Phi_fix, self._lag(eps, self.nc)])
             theta = self._stable(np.asarray(lstsq(Phi, Y).theta))
             # stage 3: one Gauss-Newton step on the prediction errors, by least squares
             eps, Psi = self._errors(theta, Phi_fix, Y)

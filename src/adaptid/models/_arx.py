@@ -69,6 +69,12 @@ class ARX(_PolyModel, metaclass=ABCMeta):
     A, B, C, F : ndarray
         Polynomials (C = F = [1]).
     aic, fpe, loss : float
+    n_dropped : int
+        Rows left out of the fit because their regressors or target touch a
+        NaN (gaps; see :meth:`fit`'s ``nan_policy``).
+    n_experiments : int
+        Experiments of the fit's record (:meth:`IDData.merge`); their rows
+        are formed inside each and stacked.
 
     References
     ----------
@@ -129,7 +135,7 @@ class ARX(_PolyModel, metaclass=ABCMeta):
         reg, Phi = self._fixed_regression(y, U, self._single)
         return reg, Phi
 
-    def fit(self, y, u=None):
+    def fit(self, y, u=None, *, nan_policy="omit"):
         r"""Least-squares fit on the whole record (QR, :func:`adaptid.lstsq`).
 
         Parameters
@@ -144,6 +150,11 @@ class ARX(_PolyModel, metaclass=ABCMeta):
             :func:`resid`, :func:`select_order`; anything else is refused
             naming the argument. (N, 1) is squeezed to (N,).
         u : array_like, shape (N,) or (N, m); pandas
+        nan_policy : {"omit", "raise"}
+            ``"omit"`` (default): NaN samples are gaps: the rows whose regressors or target touch a NaN are left out (those of a merged IDData are formed inside each experiment and stacked)
+            (``n_dropped`` counts the rows lost, and ``summary()`` reports
+            it). ``"raise"``: a NaN in y or u is refused (ValueError naming
+            the signal).
 
         Returns
         -------
@@ -153,6 +164,9 @@ class ARX(_PolyModel, metaclass=ABCMeta):
 
         if self._to_mimo(y, u):
             return self.fit(y, u)
+        from ._segments import check_nan_policy
+
+        self._nan_policy = check_nan_policy(nan_policy)
         reg, Phi = self._prepare(y, u)
         res = lstsq(Phi, reg.y)
         self.theta = np.asarray(res.theta, dtype=np.float64)
@@ -206,6 +220,7 @@ class ARX(_PolyModel, metaclass=ABCMeta):
         if options:
             raise param_error("options", "none for one output (they are the estimator options "
                               "of a multi-output fit)", f"<{sorted(options)}>", exc=TypeError)
+        self._nan_policy = "omit"           # rows that touch a NaN left out (see fit)
         reg, Phi = self._prepare(y, u)
         d = Phi.shape[1]
         if estimator is None:

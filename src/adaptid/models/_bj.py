@@ -7,7 +7,7 @@ import numpy as np
 from .._lazy import lazy
 from .._validation import as_float_array, check_int
 from ._builders import _per_input
-from ._pem import _PseudoLinearModel, lagmat, stabilize
+from ._pem import _PseudoLinearModel, stabilize
 from ._polymodel import _poly_sub, check_orders
 
 signal = lazy("scipy.signal")
@@ -15,9 +15,11 @@ signal = lazy("scipy.signal")
 __all__ = ["BJ"]
 
 
-def _lf(num, den, X):
+def _lf(num, den, X, row_bounds=None):
     """Filter the columns of X (none: an empty (N, 0) array)."""
-    return signal.lfilter(num, den, X, axis=0) if X.shape[1] else X
+    from ._segments import lfilter_segments
+
+    return lfilter_segments(num, den, X, row_bounds) if X.shape[1] else X
 
 
 class BJ(_PseudoLinearModel):
@@ -185,6 +187,7 @@ class BJ(_PseudoLinearModel):
         bs, c, d, fs = self._parts(np.asarray(theta, dtype=np.float64))
         C = np.concatenate([[1.0], c])
         D = np.concatenate([[1.0], d])
+        rb = getattr(self, "_row_bounds", None)
         ws, psi_b, psi_f, o = [], [], [], 0
         for b, f in zip(bs, fs):
             F = np.concatenate([[1.0], f])
@@ -193,12 +196,12 @@ class BJ(_PseudoLinearModel):
             w = self._filt(F, cols @ b)
             ws.append(w)
             CF = np.convolve(C, F)
-            psi_b.append(_lf(D, CF, cols))
-            psi_f.append(-_lf(D, CF, lagmat(w, f.size)))
+            psi_b.append(_lf(D, CF, cols, rb))
+            psi_f.append(-_lf(D, CF, self._lag(w, f.size), rb))
         v = Y - np.sum(ws, axis=0)
-        eps = signal.lfilter(D, C, v)
-        psi_c = _lf([1.0], C, lagmat(eps, self.nc))
-        psi_d = -_lf([1.0], C, lagmat(v, self.nd))
+        eps = self._filt(C, v, num=D)
+        psi_c = _lf([1.0], C, self._lag(eps, self.nc), rb)
+        psi_d = -_lf([1.0], C, self._lag(v, self.nd), rb)
         return eps, np.hstack(psi_b + [psi_c, psi_d] + psi_f)
 
     def _refine(self, theta, Phi_fix, Y, max_nfev=None):
@@ -217,7 +220,8 @@ class BJ(_PseudoLinearModel):
         return theta
 
     # ------------------------------------------------------------- fit
-    def fit(self, y, u=None, *, refine=True, n_iter=30, arx_order=None, max_nfev=None):
+    def fit(self, y, u=None, *, refine=True, n_iter=30, arx_order=None, max_nfev=None,
+            nan_policy="omit"):
         r"""Batch fit: Steiglitz–McBride + Hannan–Rissanen start, prediction-error minimisation.
 
         1. B, F: :meth:`OE.fit` (Steiglitz–McBride iterations, least squares
@@ -251,6 +255,11 @@ class BJ(_PseudoLinearModel):
             Long AR order of the Hannan–Rissanen step.
         max_nfev : int, optional
             Function evaluations of the minimisation at most.
+        nan_policy : {"omit", "raise"}
+            ``"omit"`` (default): NaN samples are gaps: the record is split at each run of NaN into separate experiments (the filters restart after each gap)
+            (``n_dropped`` counts the rows lost, and ``summary()`` reports
+            it). ``"raise"``: a NaN in y or u is refused (ValueError naming
+            the signal).
 
         Returns
         -------
@@ -258,21 +267,28 @@ class BJ(_PseudoLinearModel):
         """
         from ._ar import ARMA
         from ._oe import OE
+        from ._segments import check_nan_policy, segment_record
 
+        self._nan_policy = check_nan_policy(nan_policy)
         y, U = self._data(y, u, fitting=True)
         reg, Phi_fix = self._fixed_regression(y, U, self._single)
+        # the start estimates on the experiments and runs between gaps, kept apart
+        rec = segment_record(y, U, self._fit_pieces)
         with np.errstate(over="ignore", invalid="ignore"):  # rejected trial steps, see _refine
-            oe = OE(self._nb_spec, self._nf_spec, self._nk_spec).fit(
-                y, U[:, 0] if self._single else U, n_iter=n_iter, refine=True)
+            oe = OE(self._nb_spec, self._nf_spec, self._nk_spec).fit(rec, n_iter=n_iter,
+                                                                     refine=True)
         nbs = sum(self._nb)
         c, d = np.zeros(self.nc), np.zeros(self.nd)
         if self.nc + self.nd:
-            vhat = y - oe.simulate(U)
+            w = np.full(y.size, np.nan)          # the OE simulation, restarted in each piece
+            for a, b in self._fit_pieces:
+                w[a:b] = oe.simulate(U[a:b])
+            vrec = segment_record(y - w, np.zeros((y.size, 0)), self._fit_pieces)
             if self.nd:
-                arma = ARMA(self.nd, self.nc).fit(vhat, refine=False, arx_order=arx_order)
+                arma = ARMA(self.nd, self.nc).fit(vrec, refine=False, arx_order=arx_order)
                 d, c = arma.theta[: self.nd], arma.theta[self.nd:]
             else:  # MA noise: Hannan-Rissanen of an ARMA(1, nc), keeping its C
-                arma = ARMA(1, self.nc).fit(vhat, refine=False, arx_order=arx_order)
+                arma = ARMA(1, self.nc).fit(vrec, refine=False, arx_order=arx_order)
                 c = arma.theta[1:]
         theta = self._stable(np.r_[oe.theta[:nbs], c, d, oe.theta[nbs:]])
         if refine:
@@ -302,8 +318,11 @@ class BJ(_PseudoLinearModel):
         -------
         ndarray, shape (N,)
         """
-        y, U = self._data(y, u)
+        y, U, bounds = self._record_signals(y, u)
         k = check_int(k, "k", low=1)
+        return self._by_runs(lambda yy, UU: self._predict_arrays(yy, UU, k), bounds, y, U)
+
+    def _predict_arrays(self, y, U, k):
         _, Bs, C, Fs = self._polys()
         D = self.D
         HD = np.convolve(self._hbar(k, D, C), D)
@@ -324,12 +343,17 @@ class BJ(_PseudoLinearModel):
         -------
         ndarray, shape (N,)
         """
-        U = self._inputs(u)
+        U, bounds = self._inputs_bounds(u)
+        if noise is not None:
+            e = as_float_array(noise, "noise", shape=(U.shape[0],))
+            return self._by_runs(self._simulate_arrays, bounds, U, e)
+        return self._by_runs(self._simulate_arrays, bounds, U)
+
+    def _simulate_arrays(self, U, e=None):
         _, Bs, C, Fs = self._polys()
         out = np.zeros(U.shape[0])
         for i in range(self._m):
             out += signal.lfilter(Bs[i], Fs[i], U[:, i])
-        if noise is not None:
-            e = as_float_array(noise, "noise", shape=(U.shape[0],))
+        if e is not None:
             out = out + signal.lfilter(C, self.D, e)
         return out

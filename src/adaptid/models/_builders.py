@@ -24,7 +24,7 @@ __all__ = [
 # --------------------------------------------------------------------- helpers
 def _as_inputs(u, N, name="u"):
     """u as an (N, m) float64 array, and whether it was one-dimensional."""
-    arr = as_float_array(u, name, ndim=(1, 2))
+    arr = as_float_array(u, name, ndim=(1, 2), allow_nan=True)
     single = arr.ndim == 1
     arr2 = arr.reshape(-1, 1) if single else arr
     if arr2.shape[0] != N:
@@ -59,7 +59,7 @@ def _check_length(N, start, what):
 
 
 # ------------------------------------------------------------------------ ARX
-def arx_regressors(y, u, na, nb, nk=1):
+def arx_regressors(y, u, na, nb, nk=1, *, nan_policy="raise"):
     r"""Regressors of the ARX model :math:`A(q)y_k = B(q)u_k + e_k`.
 
     Row k (for every sample whose lags are all measured) is
@@ -76,11 +76,17 @@ def arx_regressors(y, u, na, nb, nk=1):
     :math:`-a_j` in the usual convention :math:`A(q) = 1 + a_1q^{-1} + \dots`
     (:class:`~adaptid.models.ARX` takes care of the sign).
 
+    Several experiments (a merged :class:`~adaptid.IDData`, or lists of
+    records) give the rows of each experiment, formed inside it, stacked:
+    no row has a lag in another experiment.
+
     Parameters
     ----------
-    y : array_like, shape (N,)
-        Output record.
-    u : array_like, shape (N,) or (N, m)
+    y : array_like, shape (N,); IDData; or list of array_like
+        Output record; or an IDData with one output (``u`` then None), whose
+        experiments are kept apart; or a list of output records (one per
+        experiment, ``u`` then the list of their inputs).
+    u : array_like, shape (N,) or (N, m); list of array_like; or None
         Input record; m inputs as columns.
     na : int
         Number of lagged outputs, ``na >= 0``.
@@ -89,6 +95,9 @@ def arx_regressors(y, u, na, nb, nk=1):
     nk : int or sequence of int, length m
         Input delay of each input in samples, ``>= 0`` (default 1; 0 means a
         direct feed-through term ``u[k]``).
+    nan_policy : {"raise", "omit"}
+        ``"raise"`` (default) refuses NaN samples; ``"omit"`` leaves out
+        every row whose regressors or target touch a NaN (gaps).
 
     Returns
     -------
@@ -98,7 +107,12 @@ def arx_regressors(y, u, na, nb, nk=1):
         :math:`s = \max(n_a, \max_i(n_k^{(i)} + n_b^{(i)} - 1))` is the number
         of initial samples needed as lags. Columns are named ``"y[k-j]"`` and
         ``"u[k-j]"`` (one input) or ``"u0[k-j]"``, ``"u1[k-j]"``, … (several).
-        ``meta`` holds ``na``, ``nb``, ``nk`` (as lists) and ``start`` = s.
+        ``meta`` holds ``na``, ``nb``, ``nk`` (as lists) and ``start`` = s;
+        ``row_bounds`` (E + 1,), the first row of each of the E experiments
+        (and the number of rows); ``n_dropped``, the rows left out for
+        touching a NaN: :math:`\sum_e \max(N_e - s, 0)` minus the rows
+        kept. ``index`` counts the samples of the experiments in turn
+        (the rows of :meth:`IDData.merge`'s concatenated signals).
 
     Raises
     ------
@@ -122,36 +136,100 @@ def arx_regressors(y, u, na, nb, nk=1):
     >>> reg.Phi[0], float(reg.y[0]), int(reg.index[0])
     (array([ 1., 10.,  0.]), 2.0, 2)
     """
-    y = as_float_array(y, "y", ndim=1)
-    N = y.shape[0]
-    U, single = _as_inputs(u, N)
-    m = U.shape[1]
+    from ._segments import check_nan_policy
+
+    nan_policy = check_nan_policy(nan_policy)
+    ys, Us, single = _experiment_signals(y, u, nan_policy == "omit")
+    m = Us[0].shape[1]
     na = check_int(na, "na", low=0)
     nbs = _per_input(nb, "nb", m, low=0)
     nks = _per_input(nk, "nk", m, low=0)
     start = max([na] + [k + b - 1 for b, k in zip(nbs, nks) if b > 0])
     if na + sum(nbs) == 0:
         raise param_error("na + sum(nb)", ">= 1 (at least one regressor)", 0)
-    _check_length(N, start, f"na={na}, nb={nbs}, nk={nks}")
-    rows = np.arange(start, N)
-    cols, names = [], []
+    what = f"na={na}, nb={nbs}, nk={nks}"
+    if len(ys) == 1:
+        _check_length(ys[0].shape[0], start, what)
+    Phis, targets, index, row_bounds, offset, possible = [], [], [], [0], 0, 0
+    for ye, Ue in zip(ys, Us):
+        if ye.shape[0] > start:
+            Phi, target, rows = _arx_rows(ye, Ue, na, nbs, nks, start)
+            possible += rows.size
+            keep = np.isfinite(target) & np.isfinite(Phi).all(axis=1)
+            if not keep.all():
+                Phi, target, rows = Phi[keep], target[keep], rows[keep]
+            Phis.append(Phi)
+            targets.append(target)
+            index.append(offset + rows)
+        row_bounds.append(row_bounds[-1] + (index[-1].size if ye.shape[0] > start else 0))
+        offset += ye.shape[0]
+    n_rows = row_bounds[-1]
+    if n_rows == 0:
+        raise param_error("y", f"an experiment with a complete row (the lags of {what} need "
+                          f"{start} initial samples, and rows that touch a NaN are left out)",
+                          "<no row>")
+    names = [_lag_name("y", j) for j in range(1, na + 1)]
+    for b, k, base in zip(nbs, nks, _input_names(m, single)):
+        names += [_lag_name(base, j) for j in range(k, k + b)]
+    Phi = np.ascontiguousarray(np.concatenate(Phis) if len(Phis) > 1 else Phis[0])
+    return Regression(Phi, np.concatenate(targets), tuple(names), np.concatenate(index),
+                      {"structure": "arx", "na": na, "nb": nbs, "nk": nks,
+                       "start": start, "n_inputs": m, "single_input": single,
+                       "row_bounds": np.asarray(row_bounds, dtype=np.int64),
+                       "n_dropped": int(possible - n_rows)})
+
+
+def _experiment_signals(y, u, allow_nan):
+    """([y_e (N_e,)], [U_e (N_e, m)], single) of one record, a merged IDData or lists."""
+    from ._iddata import IDData
+
+    if isinstance(y, IDData):
+        if u is not None:
+            raise param_error("u", "None when y is an IDData", "<an array>", exc=TypeError)
+        if y.n_outputs != 1:
+            raise param_error("y", "an IDData with one output", f"<{y.n_outputs} outputs>")
+        b = y.bounds
+        Y = y.outputs[:, 0]
+        if not allow_nan:
+            as_float_array(Y, "y", ndim=1)
+            as_float_array(y.inputs, "u", ndim=2)
+        ys = [Y[b[e]: b[e + 1]] for e in range(len(b) - 1)]
+        return ys, [y.inputs[b[e]: b[e + 1]] for e in range(len(b) - 1)], y.n_inputs == 1
+    if isinstance(y, list):
+        if not isinstance(u, list) or len(u) != len(y) or not y:
+            raise param_error("u", f"a list of {len(y)} input records (one per output record)",
+                              u, exc=TypeError)
+        ys = [as_float_array(ye, f"y[{e}]", ndim=1, allow_nan=allow_nan)
+              for e, ye in enumerate(y)]
+        pairs = [_as_inputs(ue, ye.shape[0], f"u[{e}]") for e, (ye, ue) in enumerate(zip(ys, u))]
+        if not allow_nan:
+            for e, (Ue, _) in enumerate(pairs):
+                as_float_array(Ue, f"u[{e}]")
+        if len({Ue.shape[1] for Ue, _ in pairs}) != 1:
+            raise param_error("u", "records with the same number of inputs", u)
+        return ys, [Ue for Ue, _ in pairs], pairs[0][1]
+    y = as_float_array(y, "y", ndim=1, allow_nan=allow_nan)
+    U, single = _as_inputs(u, y.shape[0])
+    if not allow_nan:
+        as_float_array(U, "u")
+    return [y], [U], single
+
+
+def _arx_rows(y, U, na, nbs, nks, start):
+    """(Φ, target, rows) of one experiment: rows k = start … N-1, lags inside it."""
+    rows = np.arange(start, y.shape[0])
+    cols = []
     if na:
         lags = np.arange(1, na + 1)
         cols.append(y[rows[:, None] - lags[None, :]])
-        names += [_lag_name("y", j) for j in lags]
-    for i, (b, k, base) in enumerate(zip(nbs, nks, _input_names(m, single))):
-        if b == 0:
-            continue
-        lags = np.arange(k, k + b)
-        cols.append(U[rows[:, None] - lags[None, :], i])
-        names += [_lag_name(base, j) for j in lags]
-    Phi = np.ascontiguousarray(np.concatenate(cols, axis=1))
-    return Regression(Phi, y[start:].copy(), tuple(names), rows,
-                      {"structure": "arx", "na": na, "nb": nbs, "nk": nks,
-                       "start": start, "n_inputs": m, "single_input": single})
+    for i, (b, k) in enumerate(zip(nbs, nks)):
+        if b:
+            lags = np.arange(k, k + b)
+            cols.append(U[rows[:, None] - lags[None, :], i])
+    return np.concatenate(cols, axis=1), y[start:].copy(), rows
 
 
-def fir_regressors(y, u, nb, nk=1):
+def fir_regressors(y, u, nb, nk=1, *, nan_policy="raise"):
     r"""Regressors of the finite impulse response model :math:`y_k = B(q)u_k + e_k`.
 
     The ARX regressors with ``na = 0``: row k is
@@ -166,6 +244,8 @@ def fir_regressors(y, u, nb, nk=1):
         Number of impulse-response coefficients (per input), ``>= 0``.
     nk : int or sequence of int
         Delay (per input), ``>= 0`` (default 1).
+    nan_policy : {"raise", "omit"}
+        As :func:`arx_regressors` (which also describes several experiments).
 
     Returns
     -------
@@ -178,7 +258,7 @@ def fir_regressors(y, u, nb, nk=1):
     .. [1] L. Ljung, *System Identification: Theory for the User*, 2nd ed.,
        1999, eq. 4.46 (FIR model).
     """
-    reg = arx_regressors(y, u, 0, nb, nk)
+    reg = arx_regressors(y, u, 0, nb, nk, nan_policy=nan_policy)
     meta = dict(reg.meta, structure="fir")
     return Regression(reg.Phi, reg.y, reg.names, reg.index, meta)
 

@@ -6,6 +6,7 @@ import numpy as np
 
 from .._validation import as_float_array, check_choice, check_scalar, param_error
 from .._lazy import pyplot
+from ._experiments import ExperimentsMixin, _merged
 
 __all__ = ["IDData", "as_signals"]
 
@@ -129,7 +130,7 @@ def _default_names(prefix, count, given, what):
     return names
 
 
-class IDData:
+class IDData(ExperimentsMixin):
     r"""The measured record of an identification experiment (MATLAB's ``iddata``).
 
     Parameters
@@ -138,6 +139,9 @@ class IDData:
         Outputs. A pandas object gives the names and, unless it is the
         default range 0..N−1, its index gives ``time``. One output may come
         as a column (N, 1); :attr:`y` is then 1-D, as for shape (N,).
+        NaN marks a missing sample (a gap, in ``u`` too): the fits leave
+        out the rows that touch it or split the record there (see their
+        ``nan_policy``); infinity is refused.
     u : array_like, shape (N,) or (N, m); pandas; or None
         Inputs (None: a time series without input). If ``y`` has no time
         index, a pandas ``u``'s index gives ``time``.
@@ -181,6 +185,11 @@ class IDData:
 
     Notes
     -----
+    Several experiments of the same signals are one record by
+    :meth:`merge`; they stay apart (:attr:`n_experiments`,
+    :meth:`experiment`), and no model forms a regressor across the boundary
+    between two of them.
+
     The sample time comes from the first of these that exists:
 
     1. ``dt`` as given;
@@ -239,13 +248,14 @@ class IDData:
             if time is None and u is not None:
                 time, freq = _index_of(u)
                 source = "u"
-        Y = as_float_array(getattr(y, "to_numpy", lambda: y)(), "y", ndim=(1, 2))
+        Y = as_float_array(getattr(y, "to_numpy", lambda: y)(), "y", ndim=(1, 2), allow_nan=True)
         Y = Y.reshape(Y.shape[0], -1)
         N = Y.shape[0]
         if u is None:
             U = np.zeros((N, 0))
         else:
-            U = as_float_array(getattr(u, "to_numpy", lambda: u)(), "u", ndim=(1, 2))
+            U = as_float_array(getattr(u, "to_numpy", lambda: u)(), "u", ndim=(1, 2),
+                               allow_nan=True)
             U = U.reshape(U.shape[0], -1)
             if U.shape[0] != N:
                 raise param_error("u", f"with N={N} rows (as y)", f"<{U.shape[0]} rows>")
@@ -270,6 +280,7 @@ class IDData:
         self.u_names = _default_names("u", U.shape[1], u_names, "u_names")
         self.y_trend = np.zeros_like(self.outputs)
         self.u_trend = np.zeros_like(self.inputs)
+        self._parts = None
 
     # ------------------------------------------------------------ access
     @property
@@ -297,7 +308,11 @@ class IDData:
 
     @property
     def t(self) -> np.ndarray:
-        """The time axis: the stamps given, else ``dt · k`` (k counted from the original start)."""
+        """The time axis: the stamps given, else ``dt · k`` (k counted from the original start).
+
+        A merged record's is each experiment's time axis in turn."""
+        if self._parts is not None:
+            return np.concatenate([p.t for p in self._parts])
         if self.time is not None:
             return self.time
         return self.dt * (self._k0 + np.arange(len(self)))
@@ -307,7 +322,17 @@ class IDData:
 
     def _copy_with(self, rows=None, *, outputs=None, inputs=None, y_trend=None, u_trend=None,
                    dt=None, k0=None):
+        if self._parts is not None:        # merged: the same change, experiment by experiment
+            if rows is not None or dt is not None or k0 is not None:
+                raise ValueError("a merged IDData is sliced experiment by experiment: use "
+                                 "data.experiment(k)[...] and merge the parts")
+            b = self.bounds
+            given = {"outputs": outputs, "inputs": inputs, "y_trend": y_trend, "u_trend": u_trend}
+            return _merged([p._copy_with(**{n: None if v is None else v[b[e]: b[e + 1]]
+                                            for n, v in given.items()})
+                            for e, p in enumerate(self._parts)])
         new = object.__new__(IDData)
+        new._parts = None
         sel = slice(None) if rows is None else rows
         new.outputs = np.ascontiguousarray(self.outputs[sel] if outputs is None else outputs)
         new.inputs = np.ascontiguousarray(self.inputs[sel] if inputs is None else inputs)
@@ -323,6 +348,9 @@ class IDData:
         """Samples by slice, e.g. ``data[:300]`` (a step multiplies ``dt``)."""
         if not isinstance(key, slice):
             raise param_error("key", "a slice of samples (e.g. data[100:400])", key, exc=TypeError)
+        if self._parts is not None:
+            raise param_error("key", "no slice of a merged record (slice one experiment: "
+                              "data.experiment(k)[...])", key, exc=TypeError)
         start, stop, step = key.indices(len(self))
         if step < 1:
             raise param_error("slice step", "a positive integer", step)
@@ -346,7 +374,12 @@ class IDData:
         Returns
         -------
         (IDData, IDData)
+            For a merged record, each experiment is split so, and the first
+            parts are merged, and the second parts.
         """
+        if self._parts is not None:
+            halves = [p.split(fraction) for p in self._parts]
+            return _merged([h[0] for h in halves]), _merged([h[1] for h in halves])
         fraction = check_scalar(fraction, "fraction", low=0.0, high=1.0, low_open=True,
                                 high_open=True)
         n1 = int(round(fraction * len(self)))
@@ -372,18 +405,25 @@ class IDData:
         Returns
         -------
         IDData
+            A merged record is detrended experiment by experiment. NaN
+            samples (gaps) are left out of the fit and stay NaN.
         """
         kind = check_choice(kind, "kind", ("constant", "linear"))
+        if self._parts is not None:
+            return _merged([p.detrend(kind) for p in self._parts])
         N = len(self)
         X = np.ones((N, 1))
         if kind == "linear":
             X = np.column_stack([X, np.arange(N) / max(N - 1, 1)])
 
         def fitted(S):
-            if S.shape[1] == 0:
-                return np.zeros_like(S)
-            coef = np.linalg.lstsq(X, S, rcond=None)[0]   # QR/SVD, 1 or 2 columns
-            return X @ coef
+            out = np.zeros_like(S)
+            for j in range(S.shape[1]):
+                ok = ~np.isnan(S[:, j])
+                if ok.any():
+                    coef = np.linalg.lstsq(X[ok], S[ok, j], rcond=None)[0]   # QR/SVD, 1-2 columns
+                    out[:, j] = X @ coef
+            return out
 
         ty, tu = fitted(self.outputs), fitted(self.inputs)
         return self._copy_with(outputs=self.outputs - ty, inputs=self.inputs - tu,
@@ -413,6 +453,9 @@ class IDData:
             import pandas as pd
         except ImportError as err:  # pragma: no cover - depends on the extra
             raise ImportError("to_frame needs pandas: pip install 'adaptid[pandas]'") from err
+        if self._parts is not None:     # the experiments stacked, under an "experiment" level
+            return pd.concat([p.to_frame() for p in self._parts],
+                             keys=range(len(self._parts)), names=["experiment"])
         cols = {n: self.outputs[:, i] for i, n in enumerate(self.y_names)}
         cols.update({n: self.inputs[:, i] for i, n in enumerate(self.u_names)})
         return pd.DataFrame(cols, index=pd.Index(self.t, name="time"))
@@ -427,19 +470,28 @@ class IDData:
         if fig is None:
             fig = plt.figure(figsize=(7, 1.8 * n + 0.6))
         axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
-        t = self.t
-        for i, name in enumerate(self.y_names):
-            axes[i].plot(t, self.outputs[:, i], lw=0.9)
-            axes[i].set_ylabel(name)
-        for j, name in enumerate(self.u_names):
-            ax = axes[self.n_outputs + j]
-            ax.step(t, self.inputs[:, j], where="post", lw=0.9)
-            ax.set_ylabel(name)
+        for e, part in enumerate(self.experiments):     # one line per experiment
+            t = part.t
+            label = f"experiment {e}" if self._parts is not None else None
+            for i, name in enumerate(self.y_names):
+                axes[i].plot(t, part.outputs[:, i], lw=0.9, label=label)
+                axes[i].set_ylabel(name)
+            for j, name in enumerate(self.u_names):
+                ax = axes[self.n_outputs + j]
+                ax.step(t, part.inputs[:, j], where="post", lw=0.9)
+                ax.set_ylabel(name)
+        if self._parts is not None:
+            axes[0].legend(fontsize="small")
         axes[-1].set_xlabel("time" if self.time is not None else "time (s)")
         return fig
 
     def __repr__(self) -> str:
         trend = "" if not (self.y_trend.any() or self.u_trend.any()) else ", detrended"
+        if self._parts is not None:
+            trend += f", experiments={self.n_experiments} (N={[len(p) for p in self._parts]})"
+        gaps = int((np.isnan(self.outputs).any(axis=1) | np.isnan(self.inputs).any(axis=1)).sum())
+        if gaps:
+            trend += f", {gaps} sample(s) with NaN"
         return (f"IDData(N={len(self)}, outputs={list(self.y_names)}, inputs={list(self.u_names)}, "
                 f"dt={self.dt:g}{trend})")
 

@@ -7,7 +7,7 @@ import numpy as np
 from .._lazy import lazy
 from .._validation import check_int
 from ._builders import _per_input
-from ._pem import _PseudoLinearModel, lagmat
+from ._pem import _PseudoLinearModel
 from ._polymodel import check_orders
 
 signal = lazy("scipy.signal")
@@ -124,10 +124,10 @@ class OE(_PseudoLinearModel):
             w = self._filt(F, cols @ b)
             w_sum += w
             psi_b.append(self._filt(F, cols))
-            psi_f.append(self._filt(F, -lagmat(w, f.size)) if f.size else np.zeros((w.size, 0)))
+            psi_f.append(self._filt(F, -self._lag(w, f.size)) if f.size else np.zeros((w.size, 0)))
         return Y - w_sum, np.hstack(psi_b + psi_f)
 
-    def fit(self, y, u=None, *, refine=True, n_iter=30, tol=1e-8):
+    def fit(self, y, u=None, *, refine=True, n_iter=30, tol=1e-8, nan_policy="omit"):
         r"""Batch fit: Steiglitz–McBride iterations, then prediction-error refinement.
 
         Iteration (one input): filter y and u by :math:`1/\hat F`, fit
@@ -148,6 +148,11 @@ class OE(_PseudoLinearModel):
         n_iter : int
             Largest number of iterations (default 30).
         tol : float
+        nan_policy : {"omit", "raise"}
+            ``"omit"`` (default): NaN samples are gaps: the record is split at each run of NaN into separate experiments (the filters restart after each gap)
+            (``n_dropped`` counts the rows lost, and ``summary()`` reports
+            it). ``"raise"``: a NaN in y or u is refused (ValueError naming
+            the signal).
 
         Returns
         -------
@@ -156,10 +161,20 @@ class OE(_PseudoLinearModel):
         from .._lstsq import lstsq
         from ._builders import arx_regressors
 
+        from ._segments import check_nan_policy
+
+        self._nan_policy = check_nan_policy(nan_policy)
         y, U = self._data(y, u, fitting=True)
         self._check_inputs(U)
         n_iter = check_int(n_iter, "n_iter", low=1)
         reg, Phi_fix = self._fixed_regression(y, U, self._single)
+        # Steiglitz-McBride on the experiments and runs between gaps, filters restarted in each
+        y, U, sb = self._segment_signals(y, U)
+        from ._segments import lfilter_segments
+
+        def pieces(x):
+            return [x[a:b] for a, b in zip(sb[:-1], sb[1:])]
+
         m = self._m
         Fs = [np.ones(1) for _ in range(m)]
         Bs = [np.zeros(1) for _ in range(m)]
@@ -170,15 +185,15 @@ class OE(_PseudoLinearModel):
             for i in range(m):
                 nb, nf, nk = self._nb[i], self._nf[i], self._nk[i]
                 target = y - (W.sum(axis=0) - W[i])
-                yf = signal.lfilter([1.0], Fs[i], target)
-                uf = signal.lfilter([1.0], Fs[i], U[:, i])
-                regf = arx_regressors(yf, uf, nf, nb, nk)
+                yf = lfilter_segments([1.0], Fs[i], target, sb)
+                uf = lfilter_segments([1.0], Fs[i], U[:, i], sb)
+                regf = arx_regressors(pieces(yf), pieces(uf), nf, nb, nk)
                 th = np.asarray(lstsq(regf.Phi, regf.y).theta)
                 b, f = th[nf:], -th[:nf]
                 parts[i] = (b, f)
                 Fs[i] = np.concatenate([[1.0], f])
                 Bs[i] = np.concatenate([np.zeros(nk), b])
-                W[i] = signal.lfilter(Bs[i], Fs[i], U[:, i])
+                W[i] = lfilter_segments(Bs[i], Fs[i], U[:, i], sb)
             new = np.concatenate([p[0] for p in parts] + [p[1] for p in parts])
             done = theta is not None and np.max(np.abs(new - theta)) < tol * (1 + np.max(np.abs(new)))
             theta = new

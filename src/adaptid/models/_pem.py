@@ -42,6 +42,8 @@ class _PseudoLinearModel(_PolyModel):
     # subclass: _nd (number of dynamic columns), _alpha, _beta, _sgn,
     # _errors(theta, Phi_fix, Y) -> (eps, Psi), _names()
 
+    _splits_at_gaps = True
+
     def _prepare(self, y, u):
         y, U = self._data(y, u, fitting=True)
         self._check_inputs(U)
@@ -147,7 +149,14 @@ class _PseudoLinearModel(_PolyModel):
             takes the final estimate; ``cov`` is the prediction-error
             covariance at it.
         """
+        self._nan_policy = "omit"           # rows that touch a NaN left out (see fit)
         reg, Phi_fix = self._prepare(y, u)
+        if len(self._row_bounds) > 2:
+            from .._validation import param_error
+
+            raise param_error("y", "one experiment without NaN gaps for the recursion (fit "
+                              "takes several experiments and gaps)",
+                              f"<{len(self._row_bounds) - 1} pieces>")
         Ik = np.empty(reg.y.shape[0])
         spec = self._signal_spec(Phi_fix.shape[1])
         Th, E, V, theta, P, Lk, n_rebuilds = run_signals(Phi_fix, reg.y, spec, estimator, Ik)
@@ -164,6 +173,21 @@ class _PseudoLinearModel(_PolyModel):
         return dataclasses.replace(traj, n_rebuilds=n_rebuilds,
                                    identified=(Ik != 0.0) if diffuse else None)
 
-    @staticmethod
-    def _filt(den, X):
-        return signal.lfilter([1.0], den, X, axis=0)
+    def _filt(self, den, X, num=(1.0,)):
+        """num/den filter of the rows, restarted at each experiment and gap."""
+        from ._segments import lfilter_segments
+
+        return lfilter_segments(list(num), den, X, getattr(self, "_row_bounds", None))
+
+    def _lag(self, x, n):
+        """Columns x[t-1], …, x[t-n] of the rows, zero before each experiment and gap."""
+        from ._segments import lagmat_segments
+
+        return lagmat_segments(x, n, getattr(self, "_row_bounds", None))
+
+    def _segment_signals(self, y, U):
+        """(y, U) on the fit's pieces, concatenated, and their sample bounds."""
+        pieces = self._fit_pieces
+        pos = np.concatenate([np.arange(a, b) for a, b in pieces])
+        sb = np.concatenate([[0], np.cumsum([b - a for a, b in pieces])]).astype(np.int64)
+        return y[pos], U[pos], sb

@@ -95,18 +95,33 @@ class _PolyModel(FrequencyMethods):
 
     def _data(self, y, u, *, fitting=False):
         """Validate (y, u) or an IDData; at fit time fix the number of inputs and the names."""
+        return self._record_signals(y, u, fitting=fitting)[:2]
+
+    def _record_signals(self, y, u, *, fitting=False):
+        """(y (N,), U (N, m), experiment bounds (E + 1,)) of a record; NaN (gaps) allowed.
+
+        At fit time the number of inputs, the names, ``dt`` and the
+        experiment bounds (:mod:`._segments`) are fixed; ``nan_policy="raise"``
+        refuses a NaN there.
+        """
         from ._iddata import as_signals
+        from ._segments import record_bounds, refuse_nan
 
         y, u, data = as_signals(y, u)
         if u is None and self._needs_input:
             raise param_error("u", "an input signal (or an IDData with inputs)", None,
                               exc=TypeError)
-        y = as_float_array(y, "y", ndim=1)
+        y = as_float_array(y, "y", ndim=1, allow_nan=True)
         if u is None:
             U, single = np.zeros((y.shape[0], 0)), True
         else:
             U, single = _as_inputs(u, y.shape[0])
+        bounds = record_bounds(data, y.shape[0])
         if fitting:
+            if getattr(self, "_nan_policy", "omit") == "raise":
+                refuse_nan((y, U), ("y", "u"))
+            self._fit_bounds = bounds
+            self._fit_pieces = None
             self._set_inputs(U.shape[1], single)
             if data is not None:
                 self.y_name, self.u_names = data.y_names[0], data.u_names
@@ -122,34 +137,89 @@ class _PolyModel(FrequencyMethods):
             if U.shape[1] != self._m:
                 raise param_error("u", f"with {self._m} input column(s) as at fit time",
                                   f"<{U.shape[1]} columns>")
-        return y, U
+        return y, U, bounds
 
     def _inputs(self, u):
+        return self._inputs_bounds(u)[0]
+
+    def _inputs_bounds(self, u):
+        """(U (N, m), experiment bounds) of an input record (an IDData gives its inputs)."""
         self._check_fitted()
         from ._iddata import IDData
+        from ._segments import record_bounds
 
-        if isinstance(u, IDData):
-            u = u.u
-        arr = as_float_array(getattr(u, "to_numpy", lambda: u)(), "u", ndim=(1, 2))
+        data = u if isinstance(u, IDData) else None
+        if data is not None:
+            u = u.inputs
+        arr = as_float_array(getattr(u, "to_numpy", lambda: u)(), "u", ndim=(1, 2),
+                             allow_nan=True)
         U = arr.reshape(-1, 1) if arr.ndim == 1 else arr
         if U.shape[1] != self._m:
             raise param_error("u", f"with {self._m} input column(s) as at fit time",
                               f"<{U.shape[1]} columns>")
-        return U
+        return U, record_bounds(data, U.shape[0])
 
     def _check_fitted(self):
         if self.theta is None:
             raise NotFittedError(f"this {type(self).__name__} is not fitted yet: call fit() "
                                  "or fit_recursive() first")
 
+    #: True for the filter-based models: rows are formed on the runs of complete
+    #: samples (each gap splits the record); False: rows touching a NaN are left out
+    _splits_at_gaps = False
+
     def _fixed_regression(self, y, U, single):
-        """ARX part of the regressors (signs: −y lags, +u lags), rows k = s … N-1."""
+        """ARX part of the regressors (signs: −y lags, +u lags), rows k = s … N-1.
+
+        Formed inside each experiment of the fit (or each run of complete
+        samples, for a model that splits at gaps) and stacked; ``reg.index``
+        holds the rows' sample positions in (y, U), ``meta["row_bounds"]``
+        the first row of each piece (also kept as ``_row_bounds`` for the
+        filters of the prediction errors), ``meta["n_dropped"]`` the rows
+        left out for touching a NaN.
+        """
+        import dataclasses
+
         if self.na + sum(self._nb) == 0:
             raise param_error("na + sum(nb)", ">= 1 for this model", 0)
-        reg = arx_regressors(y, U[:, 0] if single else U, self.na, self._nb, self._nk)
+        N = y.shape[0]
+        bounds = getattr(self, "_fit_bounds", None)
+        if bounds is None or bounds[-1] != N:
+            bounds = np.array([0, N])
+        pieces = getattr(self, "_fit_pieces", None) if self._splits_at_gaps else None
+        if pieces is None or pieces[-1][1] > N:     # (kept: instrument rows on the same runs)
+            pieces = self._pieces(y, U, bounds)
+        self._fit_pieces = pieces
+        Us = [U[a:b, 0] if single else U[a:b] for a, b in pieces]
+        if len(pieces) == 1 and pieces[0] == (0, N):
+            reg = arx_regressors(y, Us[0], self.na, self._nb, self._nk, nan_policy="omit")
+            reg.meta["seg_index"] = reg.index
+        else:
+            reg = arx_regressors([y[a:b] for a, b in pieces], Us, self.na, self._nb, self._nk,
+                                 nan_policy="omit")
+            start = reg.meta["start"]
+            pos = np.concatenate([np.arange(a, b) for a, b in pieces])
+            possible = sum(max(b - a - start, 0) for a, b in zip(bounds[:-1], bounds[1:]))
+            reg = dataclasses.replace(reg, index=pos[reg.index], meta=dict(
+                reg.meta, n_dropped=int(possible - reg.Phi.shape[0]), sample_pos=pos,
+                seg_index=reg.index))
+        self._row_bounds = reg.meta["row_bounds"]
+        self.n_dropped = reg.meta["n_dropped"]
+        self.n_experiments = len(bounds) - 1
         Phi = reg.Phi.copy()
         Phi[:, : self.na] *= -1.0
         return reg, Phi
+
+    def _pieces(self, y, U, bounds):
+        """The (start, stop) sample ranges inside which rows are formed."""
+        if not self._splits_at_gaps:
+            return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        from ._segments import complete_runs
+
+        runs = complete_runs(~(np.isnan(y) | np.isnan(U).any(axis=1)), bounds)
+        if not runs:
+            raise param_error("y", "a record with complete samples", "<only NaN>")
+        return runs
 
     # ------------------------------------------------------ parameter layout
     def _split(self, theta):
@@ -267,7 +337,9 @@ class _PolyModel(FrequencyMethods):
             = \sum_i\frac{\bar H_k B_i}{C F_i}u^{(i)}_t + \frac{C - \bar H_k A}{C}\,y_t .
 
         k = 1 is the one-step predictor; for OE (H = 1) every k gives the
-        simulation. Signals are taken as zero before the first sample.
+        simulation. Signals are taken as zero before the first sample, and
+        before the first sample of each experiment of a merged IDData and
+        after each NaN gap (whose samples are NaN in the result).
 
         Parameters
         ----------
@@ -281,8 +353,24 @@ class _PolyModel(FrequencyMethods):
         -------
         ndarray, shape (N,)
         """
-        y, U = self._data(y, u)
+        y, U, bounds = self._record_signals(y, u)
         k = check_int(k, "k", low=1)
+        return self._by_runs(lambda yy, UU: self._predict_arrays(yy, UU, k), bounds, y, U)
+
+    def _by_runs(self, fn, bounds, *arrays):
+        """``fn`` on each run of complete samples inside each experiment (NaN elsewhere)."""
+        from ._segments import complete_runs, per_segment
+
+        N = arrays[0].shape[0]
+        ok = np.ones(N, dtype=bool)
+        for a in arrays:
+            ok &= ~np.isnan(a.reshape(N, -1)).any(axis=1)
+        if ok.all() and len(bounds) == 2:
+            return fn(*arrays)
+        return per_segment(fn, complete_runs(ok, bounds), N, *arrays)
+
+    def _predict_arrays(self, y, U, k):
+        """k-step prediction of one experiment without gaps (see :meth:`predict`)."""
         A, Bs, C, Fs = self._polys()
         Hk = self._hbar(k, A, C)
         out = signal.lfilter(_poly_sub(C, np.convolve(Hk, A)), C, y)
@@ -307,14 +395,22 @@ class _PolyModel(FrequencyMethods):
         Returns
         -------
         ndarray, shape (N,)
+            For a merged IDData (or inputs with NaN gaps) the simulation
+            restarts from zero at each experiment and after each gap; the
+            samples of a gap are NaN.
         """
-        U = self._inputs(u)
+        U, bounds = self._inputs_bounds(u)
+        if noise is not None:
+            e = as_float_array(noise, "noise", shape=(U.shape[0],))
+            return self._by_runs(self._simulate_arrays, bounds, U, e)
+        return self._by_runs(self._simulate_arrays, bounds, U)
+
+    def _simulate_arrays(self, U, e=None):
         A, Bs, C, Fs = self._polys()
         out = np.zeros(U.shape[0])
         for i in range(self._m):
             out += signal.lfilter(Bs[i], np.convolve(A, Fs[i]), U[:, i])
-        if noise is not None:
-            e = as_float_array(noise, "noise", shape=(U.shape[0],))
+        if e is not None:
             out += signal.lfilter(C, A, e)
         return out
 
@@ -327,8 +423,14 @@ class _PolyModel(FrequencyMethods):
         """
         from .._teststats import fit_percent
 
-        y, U = self._data(y, u)
-        y_hat = self.simulate(U) if k is None else self.predict(y, U, k=k)
+        y, U, bounds = self._record_signals(y, u)
+        if k is None:
+            y_hat = self._by_runs(self._simulate_arrays, bounds, U)
+        else:
+            k = check_int(k, "k", low=1)
+            y_hat = self._by_runs(lambda yy, UU: self._predict_arrays(yy, UU, k), bounds, y, U)
+        ok = np.isfinite(y) & np.isfinite(y_hat)     # gaps left out
+        y, y_hat = y[ok], y_hat[ok]
         if not np.ptp(y) > 0:
             raise param_error("y", "not constant (the fit is relative to its variation)",
                               "<a constant signal>")

@@ -73,11 +73,13 @@ def model_summary(model, *, alpha=0.05, max_lag=25):
     y, U = model._fit_signals
     y_name = getattr(model, "y_name", "y")
     u_names = tuple(getattr(model, "u_names", ())) or tuple(f"u{i + 1}" for i in range(U.shape[1]))
-    if np.ptp(y) > 0:
-        y1 = model.predict(y, U if U.shape[1] else None, k=1)
-        st["fit % (1-step, estimation)"] = fit_percent(y, y1)
-        if U.shape[1]:
-            st["fit % (simulation, estimation)"] = fit_percent(y, model.simulate(U))
+    bounds = getattr(model, "_fit_bounds", None)
+    if bounds is not None and len(bounds) > 2:
+        st["experiments"] = len(bounds) - 1
+    if getattr(model, "n_dropped", 0):
+        st["rows left out (NaN)"] = int(model.n_dropped)
+    if np.nanmax(y) > np.nanmin(y):
+        st.update(_estimation_fits(model, y, U, bounds))
     M = _lags(max_lag, N)
     if np.ptp(eps) > 0:
         lb = ljung_box(eps, M, alpha)
@@ -95,6 +97,30 @@ def model_summary(model, *, alpha=0.05, max_lag=25):
     return Summary(title=title, names=tuple(model.names),
                    params=parameter_rows(theta, stderr, dof, alpha), stats=st, alpha=alpha,
                    notes=notes)
+
+
+def _estimation_fits(model, y, U, bounds):
+    """fit % of the 1-step prediction and the simulation on the estimation record,
+    experiment by experiment (each from zero initial conditions), gaps left out."""
+    from ._segments import complete_runs
+
+    N = y.shape[0]
+    bounds = np.array([0, N]) if bounds is None or bounds[-1] != N else bounds
+    ok = ~(np.isnan(y) | np.isnan(U).any(axis=1))
+    runs = [(0, N)] if ok.all() and len(bounds) == 2 else complete_runs(ok, bounds)
+    y1, ys = np.full(N, np.nan), np.full(N, np.nan)
+    for a, b in runs:
+        Ue = U[a:b]
+        y1[a:b] = model.predict(y[a:b], Ue if U.shape[1] else None, k=1)
+        if U.shape[1]:
+            ys[a:b] = model.simulate(Ue)
+    out = {}
+    keep = np.isfinite(y1)
+    out["fit % (1-step, estimation)"] = fit_percent(y[keep], y1[keep])
+    if U.shape[1]:
+        keep = np.isfinite(ys)
+        out["fit % (simulation, estimation)"] = fit_percent(y[keep], ys[keep])
+    return out
 
 
 def recursive_summary(est, Phi, y, *, names=None, alpha=0.05, max_lag=25, weights=None,

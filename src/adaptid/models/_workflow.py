@@ -7,9 +7,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._teststats import cross_correlation, fit_percent, ljung_box
+from .._teststats import fit_percent
 from .._validation import check_choice, check_int, check_scalar, param_error
 from ._iddata import as_record
+from ._segments import pooled_cross_correlation, pooled_ljung_box, record_runs
 
 __all__ = ["compare", "resid", "select_order", "CompareResult", "ResidResult", "OrderSelection"]
 
@@ -43,7 +44,7 @@ def _split_models(data, models):
 def _single_output(data, name="data"):
     if data.n_outputs != 1:
         raise param_error(name, "a record with one output", f"<{data.n_outputs} outputs>")
-    if not np.ptp(data.y) > 0:
+    if not np.nanmax(data.y) > np.nanmin(data.y):       # NaN: gaps
         raise param_error(name, "a record whose output is not constant", "<a constant output>")
 
 
@@ -65,6 +66,11 @@ class CompareResult:
     time : ndarray, shape (N,)
     k : int or None
     y_name : str
+    fit_experiments : ndarray, shape (n_models, n_experiments)
+        The fit of each model on each experiment of a merged record (one
+        column for one experiment). The outputs restart from zero initial
+        conditions at each experiment and after each NaN gap (NaN in the
+        gap, left out of the fit).
     """
 
     fit: np.ndarray
@@ -75,6 +81,7 @@ class CompareResult:
     k: int | None
     y_name: str
     figure: object = field(default=None, repr=False)
+    fit_experiments: np.ndarray = field(default=None, repr=False)
 
     def plot(self, *, ax=None, fig=None):
         """The figure (:func:`adaptid.plot.compare`)."""
@@ -113,6 +120,11 @@ def compare(data, *models, k=None, ax=None, names=None):
     channel, and the result (a
     :class:`~adaptid.models.frequency.FrequencyCompareResult`) plots the
     Bode (or Nyquist) diagram of the data with its bands and the models.
+    A merged record (:meth:`IDData.merge`) is simulated or predicted
+    experiment by experiment, and a record with NaN samples run by run
+    between the gaps, each from zero initial conditions; the fit is then
+    over all measured samples, and ``fit_experiments`` gives it per
+    experiment.
 
     Parameters
     ----------
@@ -187,21 +199,41 @@ def compare(data, *models, k=None, ax=None, names=None):
                      for r in compare_outputs(data, models, k=k))
     _single_output(data)
     y, u = data.y, data.u
+    runs = record_runs(data)         # each experiment, split at NaN gaps: outputs restart
     outs = []
     for m in models:
-        if k is not None:
-            yh = m.predict(y, u, k=k)
-        elif getattr(m, "_simulate_needs_y0", False):  # NARX: starts from the measured outputs
-            yh = m.simulate(u, y0=y)
-        else:
-            yh = m.simulate(u)
-        outs.append(np.asarray(yh, dtype=np.float64).reshape(-1))
-    fit = np.array([fit_percent(y, yh) for yh in outs])
+        yh = np.full(len(data), np.nan)
+        for a, b in runs:
+            yh[a:b] = _compare_one(m, y[a:b], None if u is None else u[a:b], k)
+        outs.append(yh)
+    fit, per = _fits(y, outs, data.bounds)
     res = CompareResult(fit=fit, names=names, y_hat=outs, y=y, time=np.asarray(data.t), k=k,
-                        y_name=data.y_names[0])
+                        y_name=data.y_names[0], fit_experiments=per)
     if ax is not None:
         object.__setattr__(res, "figure", res.plot(ax=ax))
     return res
+
+
+def _compare_one(m, y, u, k):
+    """One model's output on one experiment (or run between gaps)."""
+    if k is not None:
+        yh = m.predict(y, u, k=k)
+    elif getattr(m, "_simulate_needs_y0", False):  # NARX: starts from the measured outputs
+        yh = m.simulate(u, y0=y)
+    else:
+        yh = m.simulate(u)
+    return np.asarray(yh, dtype=np.float64).reshape(-1)
+
+
+def _fits(y, outs, bounds):
+    """fit % of each output on the samples both measured and predicted; and per experiment."""
+    def fit(a, b, yh):
+        ok = np.isfinite(y[a:b]) & np.isfinite(yh[a:b])
+        return fit_percent(y[a:b][ok], yh[a:b][ok]) if ok.sum() > 1 else float("nan")
+
+    total = np.array([fit(0, y.size, yh) for yh in outs])
+    per = np.array([[fit(a, b, yh) for a, b in zip(bounds[:-1], bounds[1:])] for yh in outs])
+    return total, per
 
 
 # ----------------------------------------------------------------------- resid
@@ -212,7 +244,9 @@ class ResidResult:
     Attributes
     ----------
     e : ndarray, shape (N - start,)
-        One-step prediction errors on the record from sample ``start`` on.
+        One-step prediction errors on the record from sample ``start`` on
+        (for a merged record or one with NaN gaps: of each experiment and
+        each run between gaps from its sample ``start`` on, concatenated).
     start : int
         The first sample tested (the predictor's lags before it lie
         outside the record).
@@ -278,6 +312,13 @@ def resid(data, *models, max_lag=25, alpha=0.01, ax=None, start=None):
     :func:`~adaptid.diagnostics.cross_correlation_test`; Ljung 1999, sec. 16.6).
     MATLAB's ``resid`` draws a 99 % band, hence ``alpha=0.01``.
 
+    A merged record (:meth:`IDData.merge`) is predicted experiment by
+    experiment, and a record with NaN samples run by run between the gaps,
+    each from zero initial conditions with its first ``start`` errors left
+    out; the correlations sum the products inside each piece only (none
+    across a boundary) over the pooled variance, with N the total number
+    of errors.
+
     Parameters
     ----------
     data : IDData, (y, u) tuple, DataFrame (output column first) or Series
@@ -333,17 +374,25 @@ def _resid_one(data, model, *, max_lag, alpha, ax, start):
         idx = getattr(model, "index", None)
         start = int(np.asarray(idx)[0]) if idx is not None and np.size(idx) else 0
     start = check_int(start, "start", low=0, high=len(data) - 3)
-    N = len(data) - start
-    max_lag = check_int(max_lag, "max_lag", low=1, high=N - 1)
     y, u = data.y, data.u
-    e = (y - np.asarray(model.predict(y, u, k=1), dtype=np.float64).reshape(-1))[start:]
+    # each experiment (and run between NaN gaps) from zero initial conditions, its first
+    # `start` errors left out; the tests pool the pieces without a product across two
+    pieces = [(a, b) for a, b in record_runs(data) if b - a > start]
+    e_parts = []
+    for a, b in pieces:
+        yh = model.predict(y[a:b], None if u is None else u[a:b], k=1)
+        e_parts.append((y[a:b] - np.asarray(yh, dtype=np.float64).reshape(-1))[start:])
+    e = np.concatenate(e_parts) if e_parts else np.zeros(0)
+    N = e.size
+    max_lag = check_int(max_lag, "max_lag", low=1, high=max(N - 1, 1))
     if not np.ptp(e) > 0:
         raise param_error("model", "a model whose residuals on data are not constant",
                           "<constant residuals>")
-    ac = ljung_box(e, max_lag, alpha)
-    U = data.inputs[start:]
-    cc = [cross_correlation(U[:, j], e, max_lag, alpha) for j in range(data.n_inputs)
-          if np.ptp(U[:, j]) > 0]
+    ac = pooled_ljung_box(e_parts, max_lag, alpha)
+    U_parts = [data.inputs[a + start:b] for a, b in pieces]
+    U = np.concatenate(U_parts) if U_parts else data.inputs[:0]
+    cc = [pooled_cross_correlation([p[:, j] for p in U_parts], e_parts, max_lag, alpha)
+          for j in range(data.n_inputs) if np.ptp(U[:, j]) > 0]
     res = ResidResult(e=e, start=start, autocorrelation=ac, cross_correlation=cc, alpha=alpha,
                       y_name=data.y_names[0],
                       u_names=tuple(n for j, n in enumerate(data.u_names) if np.ptp(U[:, j]) > 0))
@@ -412,7 +461,8 @@ class OrderSelection:
             return ARX(na, nb, nk).fit(self.data[self.start - own:])
         na, nb, nk = self.best if order is None else tuple(int(v) for v in order)
         own = max(na, nk + nb - 1)
-        return ARX(na, nb, nk).fit(self.data[self.start - own:])
+        parts = [e[self.start - own:] for e in self.data.experiments]   # each experiment's rows
+        return ARX(na, nb, nk).fit(parts[0].merge(*parts[1:]))
 
     def __repr__(self):
         return f"OrderSelection(best (na, nb, nk)={self.best}, criterion={self.criterion!r})"
@@ -470,7 +520,9 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
     data : IDData, (y, u) tuple, DataFrame (output column first), or y
         Estimation record, one output and one input; arrays may come as
         two arguments ``select_order(y, u, ...)`` (the one input
-        convention of the models' ``fit``).
+        convention of the models' ``fit``). A merged record gives the
+        rows of each experiment (from its sample s on), stacked; rows that
+        touch a NaN are left out.
     u : array_like or pandas, optional
         The input when ``data`` is the output.
     na, nb, nk : int or sequence of int
@@ -526,29 +578,35 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
         _single_output(val, "validation")
         if val.n_inputs != 1:
             raise param_error("validation", "a record with one input", f"<{val.n_inputs} inputs>")
-    y, u = data.y, data.u
-    N = y.size
+    N = min(len(e) for e in data.experiments)
     na_max, nk_min, ulag_max = max(nas), min(nks), max(nks) + max(nbs) - 1
     s = max(na_max, ulag_max)
     if N - s <= max(nas) + max(nbs):
         need = s + na_max + max(nbs)
         raise param_error("data", f"longer than the largest structure needs (> {need} samples)",
                           f"<{N} samples>")
-    if val is not None and len(val) <= s:
+    if val is not None and min(len(e) for e in val.experiments) <= s:
         raise param_error("validation", f"longer than the largest lag (> {s} samples)",
                           f"<{len(val)} samples>")
 
-    def shared(y, u):
-        """The shared regressor matrix: -y lags 1..na_max, then u lags nk_min..ulag_max."""
-        rows = np.arange(s, y.size)
-        Y_cols = (np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max
-                  else np.zeros((rows.size, 0)))
-        U_cols = np.column_stack([u[rows - j] for j in range(nk_min, ulag_max + 1)])
-        return Y_cols, U_cols, y[rows]
+    def shared(rec):
+        """The shared regressor matrix: -y lags 1..na_max, then u lags nk_min..ulag_max,
+        rows inside each experiment, those touching a NaN left out."""
+        blocks = []
+        for e in rec.experiments:
+            y, u = e.y, e.u
+            rows = np.arange(s, y.size)
+            Y_cols = (np.column_stack([-y[rows - j] for j in range(1, na_max + 1)]) if na_max
+                      else np.zeros((rows.size, 0)))
+            U_cols = np.column_stack([u[rows - j] for j in range(nk_min, ulag_max + 1)])
+            keep = np.isfinite(Y_cols).all(axis=1) & np.isfinite(U_cols).all(axis=1) \
+                & np.isfinite(y[rows])
+            blocks.append((Y_cols[keep], U_cols[keep], y[rows][keep]))
+        return tuple(np.concatenate([b[j] for b in blocks]) for j in range(3))
 
-    Y_cols, U_cols, target = shared(y, u)
+    Y_cols, U_cols, target = shared(data)
     if val is not None:
-        Yv_cols, Uv_cols, target_v = shared(val.y, val.u)
+        Yv_cols, Uv_cols, target_v = shared(val)
     n_rows = target.size
     out = {key: [] for key in ("na", "nb", "nk", "n_params", "loss", "aic", "fpe", "fit_validation")}
     for a, b, k in itertools.product(nas, nbs, nks):
@@ -567,7 +625,11 @@ def select_order(data, u=None, *, na, nb, nk=1, criterion="aic", validation=None
             loss = float(e_v @ e_v) / e_v.size
             A = np.concatenate([[1.0], th[:a]])
             B = np.concatenate([np.zeros(k), th[a:]])
-            fv = fit_percent(val.y, lfilter(B, A, val.u))
+            sim = np.full(len(val), np.nan)
+            for p, q in record_runs(val):            # each experiment, restarted after gaps
+                sim[p:q] = lfilter(B, A, val.u[p:q])
+            ok = np.isfinite(sim) & np.isfinite(val.y)
+            fv = fit_percent(val.y[ok], sim[ok])
         for key, v in zip(out, (a, b, k, d, loss, aic, fpe, fv)):
             out[key].append(v)
     table = {key: np.asarray(v) for key, v in out.items()}

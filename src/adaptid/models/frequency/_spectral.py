@@ -18,8 +18,11 @@ def _siso(data, where):
         if data.n_outputs != 1 or data.n_inputs != 1:
             raise param_error("data", f"one output and one input for {where}",
                               f"<{data.n_outputs} outputs, {data.n_inputs} inputs>")
-        return (data.outputs[:, 0], data.inputs[:, 0], data.dt, data.y_names[0],
-                data.u_names[0])
+        if data.n_experiments > 1:     # the covariances would reach across the boundary
+            raise param_error("data", f"one experiment for {where}",
+                              f"<{data.n_experiments} experiments>")
+        return (as_float_array(data.outputs[:, 0], "y"), as_float_array(data.inputs[:, 0], "u"),
+                data.dt, data.y_names[0], data.u_names[0])
     if not isinstance(data, (tuple, list)) or len(data) != 2:
         raise param_error("data", "an IDData or a (y, u) pair", f"<{type(data).__name__}>",
                           exc=TypeError)

@@ -461,6 +461,10 @@ def _tfest_time(data, n_p, n_z, dt, delay, feedthrough, refine):
                           "fits of time-domain data are not supported)", dt)
     if len(data.y_names) != 1 or len(data.u_names) != 1:
         raise param_error("data", "one input and one output", "<a MIMO IDData>")
+    if data.n_experiments > 1 or np.isnan(data.outputs).any() or np.isnan(data.inputs).any():
+        raise param_error("data", "one experiment without NaN gaps for tfest (OE fits "
+                          "several)", f"<{data.n_experiments} experiments>"
+                          if data.n_experiments > 1 else "<NaN samples>")
     delay = check_int(delay, "delay", low=0)
     nk = delay + (0 if feedthrough else 1)
     y = np.asarray(data.y, dtype=float).reshape(-1)

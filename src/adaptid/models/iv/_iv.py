@@ -30,6 +30,22 @@ def _iv_solve(Z, Phi, y):
     return theta, 0.5 * (cov + cov.T), eps, sigma2
 
 
+def _iv_model(na, nb, nk):
+    """An ARX whose rows are formed on the runs of complete samples of each experiment,
+    kept for the instrument rows (which then match the regressor rows one for one)."""
+    model = ARX(na, nb, nk)
+    model._splits_at_gaps = True
+    return model
+
+
+def _on_pieces(model, f, X, shape=None):
+    """``f`` of X on each piece of the fit (experiment, run between gaps); NaN elsewhere."""
+    out = np.full(X.shape if shape is None else shape, np.nan)
+    for a, b in model._fit_pieces:
+        out[a:b] = f(X[a:b])
+    return out
+
+
 def _finish(model, reg, Phi, theta, cov, sigma2, method):
     model.theta = theta
     model.cov = cov
@@ -91,7 +107,7 @@ def ivx(data, na, nb, nk=1, instruments=None, *, u=None):
     >>> bool(np.allclose(m.theta, [-0.8, 1.0], atol=0.05))
     True
     """
-    model = ARX(na, nb, nk)
+    model = _iv_model(na, nb, nk)
     yv, U = model._data(data, u, fitting=True)
     reg, Phi = model._fixed_regression(yv, U, model._single)
     if instruments is None:
@@ -127,7 +143,10 @@ def iv4(data, na, nb, nk=1, *, u=None):
        L(q) before the regressor and instrument rows are built.
 
     Every filter (simulation and prefilter) starts from zero on the whole
-    record; the rows are k = s … N−1 as in :class:`ARX`.
+    record; the rows are k = s … N−1 as in :class:`ARX`. A merged record
+    (:meth:`IDData.merge`) and one with NaN gaps are taken piece by piece
+    (each experiment, each run of complete samples between gaps): every
+    filter restarts and the rows of each piece are stacked.
 
     Parameters
     ----------
@@ -164,30 +183,35 @@ def iv4(data, na, nb, nk=1, *, u=None):
     """
     from ..._lstsq import lstsq
 
-    model = ARX(na, nb, nk)
+    model = _iv_model(na, nb, nk)
     yv, U = model._data(data, u, fitting=True)
     reg, Phi = model._fixed_regression(yv, U, model._single)
     # stage 1: least squares
     theta = np.asarray(lstsq(Phi, reg.y).theta, dtype=np.float64)
-    # stage 2: instruments simulated from the stage-1 model
+    # stage 2: instruments simulated from the stage-1 model (restarted in each piece)
     model.theta = theta
-    x = model.simulate(U)
+    x = _on_pieces(model, model.simulate, U, U.shape[:1])
     theta, *_ = _iv_solve(_instrument_rows(model, x, U), Phi, reg.y)
-    # stage 3: AR(na + nb) of the stage-2 residuals by least squares
+    # stage 3: AR(na + nb) of the stage-2 residuals by least squares, inside each piece
     v = reg.y - Phi @ theta
     nl = model.na + sum(model._nb)
-    if v.size <= 2 * nl:
+    rb = model._row_bounds
+    vs = [v[a:b] for a, b in zip(rb[:-1], rb[1:]) if b - a > nl]
+    if sum(w.size - nl for w in vs) <= nl:
         raise param_error("data", f"a record with more than {2 * nl} rows for the stage-3 AR "
                           f"model of order {nl}", f"<{v.size} rows>")
-    V = np.column_stack([v[nl - j - 1: v.size - j - 1] for j in range(nl)])
-    ell = np.asarray(lstsq(-V, v[nl:]).theta, dtype=np.float64)
+    V = np.vstack([np.column_stack([w[nl - j - 1: w.size - j - 1] for j in range(nl)])
+                   for w in vs])
+    ell = np.asarray(lstsq(-V, np.concatenate([w[nl:] for w in vs])).theta, dtype=np.float64)
     Lpoly = np.r_[1.0, ell]
     # stage 4: IV with instruments of the stage-2 model, everything prefiltered by L
     model.theta = theta
-    x = model.simulate(U)
-    yf = signal.lfilter(Lpoly, [1.0], yv)
-    Uf = signal.lfilter(Lpoly, [1.0], U, axis=0)
-    xf = signal.lfilter(Lpoly, [1.0], x)
+    x = _on_pieces(model, model.simulate, U, U.shape[:1])
+
+    def prefilter(X):
+        return signal.lfilter(Lpoly, [1.0], X, axis=0)
+
+    yf, Uf, xf = (_on_pieces(model, prefilter, X) for X in (yv, U, x))
     regf, Phif = model._fixed_regression(yf, Uf, model._single)
     Zf = _instrument_rows(model, xf, Uf)
     theta, cov, _, sigma2 = _iv_solve(Zf, Phif, regf.y)

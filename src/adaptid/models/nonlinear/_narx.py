@@ -160,11 +160,22 @@ class NARX(RecursiveFitMixin):
 
     # ----------------------------------------------------------- data
     @staticmethod
+    def _pieces(data):
+        """A record's experiments, each split at its NaN gaps (list of IDData)."""
+        if data.n_experiments == 1 and not (np.isnan(data.outputs).any()
+                                            or np.isnan(data.inputs).any()):
+            return [data]
+        from .._segments import record_pieces
+
+        return record_pieces(data)
+
+    @staticmethod
     def _record(data, u=None):
         if isinstance(data, IDData):
             if u is not None:
                 raise param_error("u", "None when data is an IDData", "<an array>", exc=TypeError)
-            return data
+            pieces = NARX._pieces(data)
+            return pieces if len(pieces) > 1 else pieces[0]
         if isinstance(data, (list, tuple)) and data and all(isinstance(d, IDData) for d in data):
             if u is not None:
                 raise param_error("u", "None when data are IDData records", "<an array>",
@@ -175,13 +186,13 @@ class NARX(RecursiveFitMixin):
                     raise param_error(f"data[{i}]", f"a record with {first.n_outputs} output(s) "
                                       f"and {first.n_inputs} input(s) as data[0]",
                                       f"<{d.n_outputs} outputs, {d.n_inputs} inputs>")
-            return list(data)
+            return [piece for d in data for piece in NARX._pieces(d)]
         if isinstance(data, tuple) and u is None:
             if len(data) != 2:
                 raise param_error("data", "an IDData or a (y, u) pair", f"<tuple of {len(data)}>",
                                   exc=TypeError)
             data, u = data
-        return IDData(data, u)
+        return NARX._record(IDData(data, u))
 
     @property
     def max_lag(self):
@@ -223,10 +234,11 @@ class NARX(RecursiveFitMixin):
         data : IDData, list of IDData, (y, u) tuple, or y (array_like, shape (N,) or (N, p))
             The record; with an array, ``u`` gives the inputs (shape (N,)
             or (N, m), or None for a time series). Several experiments (a
-            list of records with the same signals): the rows k = L … N_i − 1
-            of each are stacked (no lag reaches across records; the names
-            and ``dt`` are the first record's; the summary then gives no
-            fit % on the estimation data).
+            list of records with the same signals, or a merged IDData): the
+            rows k = L … N_i − 1 of each are stacked (no lag reaches across
+            records; the names and ``dt`` are the first record's; the
+            summary then gives no fit % on the estimation data). NaN samples
+            split a record into the runs between them, as experiments.
         u : array_like, optional
 
         Returns

@@ -269,7 +269,10 @@ class SINDy:
         """
         if isinstance(X, IDData):
             data = X
-            X, U, t = data.outputs, data.inputs, data.dt
+            if data.n_experiments > 1:      # derivatives would reach across the boundary
+                raise param_error("X", "an IDData of one experiment (fit each experiment of a "
+                                  "merged record apart)", f"<{data.n_experiments} experiments>")
+            X, U, t = as_float_array(data.outputs, "X"), as_float_array(data.inputs, "u"), data.dt
             self.state_names, self.input_names = data.y_names, data.u_names if U.shape[1] else ()
         else:
             X = as_float_array(X, "X", ndim=(1, 2))

@@ -7,6 +7,7 @@ import numpy as np
 from ..._lazy import lazy
 from ..._validation import check_choice, check_int, param_error
 from ._model import StateSpaceModel
+from ._dask import dask_experiments, is_dask, lq_factor_dask
 from ._signals import experiments, recurse
 
 sla = lazy("scipy.linalg")  # imported on first use, as scipy.signal elsewhere
@@ -104,6 +105,11 @@ def _weighted(Lb, method):
 
 
 # ------------------------------------------------------------------ the system
+def _rows(X, a, b):
+    """Rows a … b−1 of a signal as an ndarray (a dask array computes only those rows)."""
+    return np.asarray(X[a:b], dtype=np.float64)
+
+
 def _bd_x0(ex, A, C, feedthrough):
     r"""B, D and one initial state per experiment from one least-squares problem.
 
@@ -111,45 +117,55 @@ def _bd_x0(ex, A, C, feedthrough):
     :math:`y_k = CA^kx_0 + \sum_{\tau<k}(u_\tau^\mathsf T\otimes CA^{k-1-\tau})\operatorname{vec}B
     + (u_k^\mathsf T\otimes I)\operatorname{vec}D`
     (the simulation formulation of SLICOT IB01BD / IB01CD; Verhaegen & Verdult 2007, ch. 9).
+    The rows are formed ``CHUNK_ROWS`` samples at a time (the recursion's
+    state carried from one chunk to the next) and reduced to the R factor
+    of the augmented matrix [Φ y] by QR, so that the (N·p) × d matrix Φ
+    never is in memory at once; θ solves R θ = z (the same least-squares
+    solution, Q being orthonormal).
     """
     n, m, p = A.shape[0], ex.m, ex.p
     E = len(ex.Y)
     nd = p * m if feedthrough else 0
-    rows = []
+    d = n * m + nd + n * E
+    R = np.zeros((0, d + 1))
     for e, (Y, U) in enumerate(zip(ex.Y, ex.U)):
-        N = Y.shape[0]
-        inj = np.zeros((N, n, n * m + n))
-        for j in range(m):
-            inj[:, np.arange(n), j * n + np.arange(n)] = U[:, j:j + 1]
         s0 = np.zeros((n, n * m + n))
         s0[:, n * m:] = np.eye(n)
-        S = C @ recurse(A, inj, s0)                       # (N, p, nm + n)
-        Phi = np.zeros((N, p, n * m + nd + n * E))
-        Phi[:, :, :n * m] = S[:, :, :n * m]
-        for r in range(p if feedthrough else 0):
-            Phi[:, r, n * m + r * m: n * m + (r + 1) * m] = U
-        Phi[:, :, n * m + nd + e * n: n * m + nd + (e + 1) * n] = S[:, :, n * m:]
-        rows.append((Phi.reshape(N * p, -1), Y.reshape(-1)))
-    Phi = np.vstack([r[0] for r in rows])
-    theta = sla.lstsq(Phi, np.concatenate([r[1] for r in rows]), check_finite=False)[0]
+        for a in range(0, Y.shape[0], CHUNK_ROWS):
+            Uc, Yc = _rows(U, a, a + CHUNK_ROWS), _rows(Y, a, a + CHUNK_ROWS)
+            N = Yc.shape[0]
+            inj = np.zeros((N, n, n * m + n))
+            for j in range(m):
+                inj[:, np.arange(n), j * n + np.arange(n)] = Uc[:, j:j + 1]
+            Sx = recurse(A, inj, s0)
+            s0 = A @ Sx[-1] + inj[-1]                      # the state after this chunk
+            S = C @ Sx                                     # (N, p, nm + n)
+            Phi = np.zeros((N, p, d + 1))
+            Phi[:, :, :n * m] = S[:, :, :n * m]
+            for r in range(p if feedthrough else 0):
+                Phi[:, r, n * m + r * m: n * m + (r + 1) * m] = Uc
+            Phi[:, :, n * m + nd + e * n: n * m + nd + (e + 1) * n] = S[:, :, n * m:]
+            Phi[:, :, d] = Yc
+            R = sla.qr(np.vstack([R, Phi.reshape(N * p, d + 1)]), mode="r",
+                       check_finite=False)[0][:d + 1]
+    R = np.vstack([R, np.zeros((d + 1 - R.shape[0], d + 1))]) if R.shape[0] < d + 1 else R
+    theta = sla.lstsq(R[:d, :d], R[:d, d], check_finite=False)[0]
     B = theta[:n * m].reshape(m, n).T
     D = theta[n * m:n * m + nd].reshape(p, m) if feedthrough else np.zeros((p, m))
     x0 = theta[n * m + nd:].reshape(E, n)
     return B, D, x0
 
 
-def _states(ex, i, M):
-    r"""X̂_i = Γ^†O_i per experiment: :math:`\hat x_{i+q} = M\,w_q`, w_q the past window."""
-    m, p = ex.m, ex.p
-    out = []
-    for Y, U in zip(ex.Y, ex.U):
-        j = Y.shape[0] - 2 * i + 1
-        X = np.zeros((j, M.shape[0]))
-        for r in range(i):
-            X += U[r:r + j] @ M[:, r * m:(r + 1) * m].T
-            X += Y[r:r + j] @ M[:, m * i + r * p: m * i + (r + 1) * p].T
-        out.append(X)
-    return out
+def _states(Y, U, i, M, q0, q1):
+    r"""States :math:`\hat x_{i+q} = M\,w_q` (w_q the past window) for q = q0 … q1 − 1."""
+    m, p = U.shape[1], Y.shape[1]
+    Yw, Uw = _rows(Y, q0, q1 + i - 1), _rows(U, q0, q1 + i - 1)
+    j = q1 - q0
+    X = np.zeros((j, M.shape[0]))
+    for r in range(i):
+        X += Uw[r:r + j] @ M[:, r * m:(r + 1) * m].T
+        X += Yw[r:r + j] @ M[:, m * i + r * p: m * i + (r + 1) * p].T
+    return X
 
 
 def _kalman_gain(ex, i, M, A, B, C, D):
@@ -158,7 +174,8 @@ def _kalman_gain(ex, i, M, A, B, C, D):
     Successive columns of X̂_i are taken as successive states (exact as the
     horizon grows; Van Overschee & De Moor 1996, ch. 4; nfoursid does the same):
     :math:`\rho_w = \hat x_{k+1} - A\hat x_k - Bu_k`,
-    :math:`\rho_v = y_k - C\hat x_k - Du_k`, with covariances Q, S, R. The
+    :math:`\rho_v = y_k - C\hat x_k - Du_k`, with covariances Q, S, R
+    (summed ``CHUNK_ROWS`` states at a time). The
     steady-state Kalman predictor then solves the filter Riccati equation
     (``scipy.linalg.solve_discrete_are``) :math:`P = APA^\mathsf T + Q -
     (APC^\mathsf T + S)(CPC^\mathsf T + R)^{-1}(APC^\mathsf T + S)^\mathsf T`,
@@ -166,16 +183,24 @@ def _kalman_gain(ex, i, M, A, B, C, D):
     :math:`\Sigma_e = CPC^\mathsf T + R`. When R is numerically zero (a
     noise-free record) there is no innovation: K = 0, Σ_e = R.
     """
-    W, V = [], []
-    for X, Y, U in zip(_states(ex, i, M), ex.Y, ex.U):
-        Uk, Yk = U[i:i + X.shape[0] - 1], Y[i:i + X.shape[0] - 1]
-        W.append(X[1:] - X[:-1] @ A.T - Uk @ B.T)
-        V.append(Yk - X[:-1] @ C.T - Uk @ D.T)
-    W, V = np.vstack(W), np.vstack(V)
-    N = W.shape[0]
-    Q, S, R = W.T @ W / N, W.T @ V / N, V.T @ V / N
+    n, p = A.shape[0], C.shape[0]
+    G = np.zeros((n + p, n + p))         # [W V]ᵀ[W V]
+    N, ssy = 0, 0.0
+    for Y, U in zip(ex.Y, ex.U):
+        j = Y.shape[0] - 2 * i + 1
+        for q0 in range(0, j - 1, CHUNK_ROWS):
+            q1 = min(q0 + CHUNK_ROWS, j - 1)
+            X = _states(Y, U, i, M, q0, q1 + 1)          # one state more: x̂ at q1
+            Uk, Yk = _rows(U, i + q0, i + q1), _rows(Y, i + q0, i + q1)
+            WV = np.hstack([X[1:] - X[:-1] @ A.T - Uk @ B.T, Yk - X[:-1] @ C.T - Uk @ D.T])
+            G += WV.T @ WV
+            N += WV.shape[0]
+        for a in range(0, Y.shape[0], CHUNK_ROWS):
+            Yc = _rows(Y, a, a + CHUNK_ROWS)
+            ssy += float(np.einsum("ij,ij->", Yc, Yc))
+    Q, S, R = G[:n, :n] / N, G[:n, n:] / N, G[n:, n:] / N
     R = (R + R.T) / 2
-    scale = max(float(np.trace(np.vstack(ex.Y).T @ np.vstack(ex.Y))) / sum(ex.lengths), 1e-300)
+    scale = max(ssy / sum(ex.lengths), 1e-300)
     if np.linalg.eigvalsh(R)[0] <= 1e-14 * scale:
         return np.zeros((A.shape[0], C.shape[0])), R
     try:
@@ -287,7 +312,18 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     data : IDData, (y, u) tuple of arrays (N, p), (N, m); or a list of them
         The record; a list holds several experiments with the same signals,
         whose Hankel columns are stacked (never across a boundary); each has
-        its own initial state. At least one input (time series: not yet).
+        its own initial state. A merged IDData (:meth:`IDData.merge`) is
+        its experiments; NaN samples split a record into the runs of
+        complete samples between them, each a separate experiment (runs
+        shorter than 2·horizon are left out; MATLAB's ``misdata``, which
+        fills the gaps from a model, is the alternative). At least one
+        input (time series: not yet). Dask data (a ``(y, u)`` pair of
+        Dask arrays, Series or DataFrames, or one Dask DataFrame whose
+        first column is the output) is one experiment larger than memory:
+        the R factor of the block-Hankel matrix comes from Dask's
+        tall-skinny QR over blocks formed per chunk (with an overlap of
+        2·horizon − 1 samples), the rest from one ordered pass over the
+        chunks; ``order`` is then an integer or None.
     order : int, sequence of int, or None
         n. None: the index of the largest drop of the logarithm of the
         singular values among the first (horizon − 1)·p + 1 (a noise-free
@@ -346,18 +382,23 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     True
     """
     method = check_choice(method, "method", ("moesp", "n4sid", "cva"))
-    ex = experiments(data)
+    on_dask = is_dask(data)
+    ex = dask_experiments(data) if on_dask else experiments(data)
+    if on_dask and order is not None and np.ndim(order) != 0:
+        raise param_error("order", "an integer or None for Dask data (a range compares the "
+                          "orders' prediction errors in memory)", order)
     p, m = ex.p, ex.m
     guess = 10 if order is None else max(np.ravel(order).tolist() or [1])
     i = (max(10, 2 * int(guess)) if horizon is None
          else check_int(horizon, "horizon", low=2))
+    ex = ex.without_short(2 * i)      # runs between NaN gaps too short for the Hankel blocks
     n_max = (i - 1) * p
     orders = None if order is None else _orders(order, n_max)
     cols = sum(max(N - 2 * i + 1, 0) for N in ex.lengths)
     if cols < 2 * i * (m + p) or min(ex.lengths) < 2 * i:
         raise param_error("data", f"at least 2·horizon = {2 * i} samples per experiment and "
                           f"{2 * i * (m + p)} Hankel columns in all", f"<{cols} columns>")
-    L, _ = _lq_factor(ex, i)
+    L, _ = lq_factor_dask(ex, i, _hankel_chunk) if on_dask else _lq_factor(ex, i)
     Ob, W1inv, Z = _weighted(_blocks(L, m, p, i), method)
     U1, sv, _ = sla.svd(Ob, full_matrices=False, check_finite=False)
     info = {"method": method, "horizon": i, "samples": sum(ex.lengths),
@@ -371,7 +412,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
         mdl = StateSpaceModel(A, B, C, D, K, noise_cov=Se, dt=ex.dt, y_names=ex.y_names,
                               u_names=ex.u_names, singular_values=sv,
                               info=dict(info, x0=x0))
-        mdl._fit_data = ex
+        mdl._fit_data = None if on_dask else ex
         models.append(mdl)
     if len(models) == 1:
         return models[0]
