@@ -104,7 +104,8 @@ from .mimo import MIMOARX
 from .iv import iv4, ivx
 from .frequency import (FrequencyCompareResult, FrequencyResponse, Roots, StepResponse,
                         TransferFunctionModel, etfe, spa, spafdr, tfest)
-from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
+from ._workflow import CompareResult, ResidResult, compare, resid
+from ._selection import OrderSelection, select_order
 from .streaming import RecursiveAR, RecursiveARX, StreamResult
 
 # The DC-motor builder lives in its own module, loaded on first use.
