@@ -118,12 +118,13 @@ def _fma_flags():
 
 # --------------------------------------------------------------------------- data
 def _plant(N, m=1, seed=33):
-    """A stable ARX plant (dryer-like) with offsets: y ≈ 20 + …, u ≈ 5 + … (raw measurements)."""
+    """A stable ARX plant (dryer-like) with offsets: y ≈ 20 + …, u ≈ 5 + … (raw)."""
     rng = np.random.default_rng(seed)
     U = 5.0 + rng.standard_normal((N, m))
     y = np.zeros(N)
     for k in range(N):
-        acc = 1.2 * (y[k - 1] - 20.0 if k >= 1 else 0.0) - 0.45 * (y[k - 2] - 20.0 if k >= 2 else 0.0)
+        acc = (1.2 * (y[k - 1] - 20.0 if k >= 1 else 0.0)
+               - 0.45 * (y[k - 2] - 20.0 if k >= 2 else 0.0))
         for i in range(m):
             acc += (0.8 - 0.2 * i) * (U[k - 3, i] - 5.0 if k >= 3 else 0.0)
             acc += 0.3 * (U[k - 4, i] - 5.0 if k >= 4 else 0.0)
@@ -372,8 +373,10 @@ def test_streaming_file_keeps_the_estimator_entry(tmp_path):
     """A streaming object's files hold the estimator's own API too (NAME_update …)."""
     h, c = codegen.to_c(RecursiveARX(1, 1, 1), tmp_path, name="s")
     head = h.read_text()
-    for decl in ("void s_init(s_t *s);", "double s_update(s_t *s, const double phi[S_N], double y);",
-                 "void s_model_init(s_model_t *m);", "double s_step(s_model_t *m, double y, double u);",
+    for decl in ("void s_init(s_t *s);",
+                 "double s_update(s_t *s, const double phi[S_N], double y);",
+                 "void s_model_init(s_model_t *m);",
+                 "double s_step(s_model_t *m, double y, double u);",
                  "s_t est;", "#define S_NK_0 1"):
         assert decl in head
     h2 = codegen.to_c(RecursiveAR(2), tmp_path, name="a")[0].read_text()
@@ -468,3 +471,24 @@ def test_cli_export_c_refuses_linear_detrend(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--detrend linear" in err[0]
     assert not (tmp_path / "c").exists()
+
+
+def test_docs_section_runs(tmp_path, monkeypatch):
+    """docs/embedded.md, "C for a model": the Python block exports, the header excerpt
+    is the generated header's text line for line, the C block compiles warning-free."""
+    from pathlib import Path
+    page = (Path(__file__).resolve().parents[2] / "docs" / "embedded.md").read_text()
+    sec = page[page.index("## C for a model"):]
+    sec = sec[: sec.index("\n## ", 1)]
+    py = re.findall(r"^```python\n(.*?)^```", sec, re.S | re.M)
+    text = re.findall(r"^```text\n(.*?)^```", sec, re.S | re.M)
+    c = re.findall(r"^```c\n(.*?)^```", sec, re.S | re.M)
+    monkeypatch.chdir(tmp_path)
+    exec(compile(py[0], "embedded.md", "exec"), {"__name__": "docs_embedded_models"})
+    head = (tmp_path / "firmware" / "dryer.h").read_text().splitlines()
+    for line in text[0].splitlines():
+        assert line == " ..." or line in head, line
+    (tmp_path / "control.c").write_text(c[0])
+    res = subprocess.run([_tool("gcc"), *CFLAGS, "-Ifirmware", "-c", "control.c", "-o",
+                          "control.o"], capture_output=True, text=True)
+    assert res.returncode == 0 and res.stderr == "", res.stderr

@@ -38,7 +38,9 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
     streaming object updates θ with :math:`(\varphi_k, y_k - y_0)`. The
     header documents the regressor in a comment and in named constants
     (``NAME_NA``, ``NAME_NB_i``, ``NAME_NK_i``, ``NAME_PHI_U_i``, ``NAME_Y0``,
-    ``NAME_U0_i``, ``NAME_START``). See ``docs/embedded.md``, "C for a model".
+    ``NAME_U0_i``, ``NAME_START``). The predictor is the ARX model's linear
+    regression form (Ljung (1999), sec. 4.2; MATLAB's ``recursiveARX``
+    ``step``). See ``docs/embedded.md``, "C for a model".
 
     The generated code is C99 without dynamic memory or recursion, using only
     ``<math.h>``, ``<stdint.h>`` and ``<string.h>``; n (and the window M)
@@ -124,6 +126,11 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
     >>> _ = est.run(np.ones((3, 2)), np.ones(3))
     >>> h, c = to_c(est, tempfile.mkdtemp(), name="motor")
     >>> "double motor_update(motor_t *s, const double phi[MOTOR_N], double y);" in h.read_text()
+    True
+    >>> from adaptid.models import RecursiveARX
+    >>> h, c = to_c(RecursiveARX(2, 2, 3), tempfile.mkdtemp(), name="dryer",
+    ...             offsets=(20.0, 5.0))
+    >>> "phi[2] = +(u(k-3) - DRYER_U0_0)" in h.read_text()
     True
     """
     from ._model import generate_model, is_model

@@ -245,7 +245,8 @@ def _doc(spec, streaming, lit):
     what = (f"{spec.kind} model na = {spec.na}" + ("" if spec.kind == "AR" else
             f", nb = {list(spec.nb) if not spec.single else spec.nb[0]}, "
             f"nk = {list(spec.nk) if not spec.single else spec.nk[0]}"))
-    lines = [f" * {what} (MATLAB's arx / recursiveARX convention), from a {spec.source}:",
+    art = "an" if spec.source[0] in "AEIOU" else "a"
+    lines = [f" * {what} (MATLAB's arx / recursiveARX convention), from {art} {spec.source}:",
              " *   y(k) = phi(k)^T theta + e(k),  theta = ["
              + ", ".join(spec.names) + "]",
              " * with the regressor, in this order (offsets removed, lag buffers zero before",
@@ -271,7 +272,8 @@ def _doc(spec, streaming, lit):
                   "buffers", " * (NAN returned, no update), as Python's start=\"filled\"."]
     lines += [" * A NaN or inf measurement enters the buffers: the estimator skips every",
               " * sample whose regressor holds it (theta unchanged), yhat is NaN meanwhile."
-              if streaming else " * sample whose regressor holds it gives yhat = NaN."]
+              ] if streaming else [" * A NaN or inf measurement enters the buffers: yhat is "
+                                   "NaN while a regressor holds it."]
     return "\n".join(lines)
 
 
@@ -284,7 +286,7 @@ def _constants(spec, streaming, lit):
     for i, (b, k0) in enumerate(zip(spec.nb, spec.nk)):
         d += [f"#define $U_NB_{i} {b}              /* input {i}: number of b coefficients */",
               f"#define $U_NK_{i} {k0}              /* input {i}: delay; phi[PHI_U_{i} + j] = "
-              f"u{i}(k - NK_{i} - j) - U0_{i} */",
+              f"u_{i}(k - NK_{i} - j) - U0_{i} */",
               f"#define $U_PHI_U_{i} {pos}           /* input {i}: index of its first entry "
               "in phi */"]
         pos += b
