@@ -492,3 +492,77 @@ def test_docs_section_runs(tmp_path, monkeypatch):
     res = subprocess.run([_tool("gcc"), *CFLAGS, "-Ifirmware", "-c", "control.c", "-o",
                           "control.o"], capture_output=True, text=True)
     assert res.returncode == 0 and res.stderr == "", res.stderr
+
+
+@pytest.mark.parametrize("structure,m", [(["--ar", "3"], 0), (["--fir", "3,2", "--u", "pump"], 1),
+                                         (["--arx", "2,2,3", "--u", "pump,fan"], 2)])
+def test_cli_export_c_other_structures(tmp_path, capsys, structure, m):
+    """--ar, --fir and two inputs: the model entry continues the fit's estimator; C steps
+    on new raw data = Python's step() of the streaming object holding the estimator of
+    the same fit in Python (ARX(0, nb, nk) for FIR), bit for bit with FMA."""
+    from adaptid.cli import main
+    y, U = _plant(1300, m=2)
+    cols = {"pump": U[:, 0], "fan": U[:, 1], "temp": y}
+    np.savetxt(tmp_path / "d.csv", np.column_stack(list(cols.values()))[:1000], delimiter=",",
+               header=",".join(cols), comments="", fmt="%.17g")
+    assert main(["fit", str(tmp_path / "d.csv"), "--y", "temp", *structure, "--detrend",
+                 "constant", "--forgetting", "0.995", "--export-c", str(tmp_path / "c"),
+                 "--c-name", "mdl", "-q"]) == 0
+    capsys.readouterr()
+    data = IDData(y[:1000], U[:1000, :m] if m else None).detrend("constant")
+    if m == 0:
+        fitted, obj = AR(3), RecursiveAR(3, start="filled")
+    elif m == 1:
+        fitted, obj = ARX(0, 3, 2), RecursiveARX(0, 3, 2, start="filled")
+    else:
+        fitted, obj = ARX(2, [2, 2], [3, 3]), RecursiveARX(2, [2, 2], [3, 3], start="filled")
+    fitted.fit_recursive(data, estimator=adaptid.RLS(obj.n_params, forgetting=0.995))
+    state = obj.get_state()
+    state["inner"] = fitted.estimator.get_state()
+    ref = type(obj).from_state(state)
+    y0, u0 = data.y_trend[0, 0], data.u_trend[0, :m]
+    steps = [ref.step(y[k] - y0, *((U[k, 0] - u0[0],) if m == 1 else (U[k, :m] - u0,) if m
+                                   else ())) for k in range(1000, 1300)]
+    theta = np.array([s[0] for s in steps])
+    yhat = np.array([s[1] for s in steps]) + y0
+    flags = _fma_flags() or ["-ffp-contract=off"]
+    drv = (DRIVER.replace("@name@", "mdl").replace("@N@", "MDL_N").replace("@M@", str(m))
+           .replace("@UARG@", "" if m == 0 else ", uu[0]" if m == 1 else ", uu")
+           .replace("@real@", "double"))
+    res = subprocess.run([_tool("gcc"), *CFLAGS, *flags, "-I", str(tmp_path / "c"), "-x", "c",
+                          "-", str(tmp_path / "c" / "mdl.c"), "-o", str(tmp_path / "drv"),
+                          "-lm"], input=drv, capture_output=True, text=True)
+    assert res.returncode == 0 and res.stderr == "", res.stderr
+    yh, th, count = _run(tmp_path / "drv", y[1000:], U[1000:, :m])
+    assert count == 300 and np.isnan(yh).sum() == np.isnan(yhat).sum() > 0
+    np.testing.assert_allclose(th, theta, rtol=1e-12)
+    if flags[0] == "-DMDL_USE_FMA":
+        np.testing.assert_array_equal(th, theta)
+        np.testing.assert_array_equal(yh, yhat)
+
+
+def test_cli_export_c_intercept_writes_the_estimator_only(tmp_path, capsys):
+    from adaptid.cli import main
+    y, U = _plant(300)
+    np.savetxt(tmp_path / "d.csv", np.column_stack([U[:, 0], y]), delimiter=",",
+               header="pump,temp", comments="")
+    assert main(["fit", str(tmp_path / "d.csv"), "--y", "temp", "--u", "pump", "--arx", "1,1,1",
+                 "--intercept", "--export-c", str(tmp_path / "c"), "-q"]) == 0
+    capsys.readouterr()
+    head = (tmp_path / "c" / "rls.h").read_text()
+    assert "rls_update(" in head and "rls_step" not in head
+
+
+def test_nan_measurement_in_c(tmp_path):
+    """The documented C behaviour (Python's step refuses NaN): a NaN y(k) is skipped by the
+    estimator, sits in the buffer for na samples (ŷ NaN, θ unchanged, each skipped), then
+    the model continues from the same θ."""
+    y, U = _plant(400)
+    y[200] = np.nan
+    obj = RecursiveARX(2, 2, 3, forgetting=0.99)
+    yh, th, count = _run(_build(obj, tmp_path, m=1, offsets=(20.0, 5.0),
+                                flags=["-ffp-contract=off"]), y, U)
+    assert np.isfinite(yh[200]) and np.isnan(yh[201:203]).all() and np.isfinite(yh[203:]).all()
+    np.testing.assert_array_equal(th[200], th[199])
+    np.testing.assert_array_equal(th[202], th[199])
+    assert not np.array_equal(th[203], th[202]) and np.all(np.isfinite(th))
