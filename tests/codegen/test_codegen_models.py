@@ -398,11 +398,11 @@ def test_refusals(tmp_path):
         codegen.to_c(ARX(2, 2, 3), tmp_path)
     with pytest.raises(ValueError, match="offsets"):
         codegen.to_c(RecursiveARX(2, [1, 1], [1, 1]), tmp_path, offsets=(0.0, [1.0, 2.0, 3.0]))
-    with pytest.raises(TypeError, match="offsets"):
+    with pytest.raises(ValueError, match=r"offsets must be a number y0 \(the model has no"):
         codegen.to_c(RecursiveAR(2), tmp_path, offsets=(0.0, 1.0))
     with pytest.raises(ValueError, match="offsets must be finite"):
         codegen.to_c(RecursiveAR(2), tmp_path, offsets=np.nan)
-    with pytest.raises(TypeError, match="offsets must be None for an estimator"):
+    with pytest.raises(ValueError, match="offsets must be None for an estimator"):
         codegen.to_c(adaptid.RLS(2), tmp_path, offsets=1.0)
     with pytest.raises(ValueError, match="finite P0"):
         codegen.to_c(RecursiveARX(1, 1, 1, P0="diffuse"), tmp_path)
@@ -566,3 +566,21 @@ def test_nan_measurement_in_c(tmp_path):
     np.testing.assert_array_equal(th[200], th[199])
     np.testing.assert_array_equal(th[202], th[199])
     assert not np.array_equal(th[203], th[202]) and np.all(np.isfinite(th))
+
+
+def test_export_c_command_reads_a_stream_state_file(tmp_path):
+    """adaptid export-c on a RecursiveARX state file writes the model entry (no offsets:
+    a state file does not record them), the same text as to_c of the object."""
+    import sys
+    y, U = _plant(500)
+    obj = RecursiveARX(2, 2, 3, forgetting=0.99)
+    obj.run(y - 20.0, U[:, 0] - 5.0)
+    obj.save_state(tmp_path / "s.npz")
+    r = subprocess.run([sys.executable, "-m", "adaptid", "export-c", str(tmp_path / "s.npz"),
+                        "--out", str(tmp_path / "c"), "--name", "dry"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    want = codegen.to_c(obj, tmp_path / "py", name="dry")
+    assert (tmp_path / "c" / "dry.h").read_text() == want[0].read_text()
+    assert (tmp_path / "c" / "dry.c").read_text() == want[1].read_text()
+    assert "#define DRY_Y0 0.0" in want[0].read_text()

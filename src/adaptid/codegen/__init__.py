@@ -141,7 +141,7 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
     if offsets is not None:
         from .._validation import param_error
         raise param_error("offsets", "None for an estimator (offsets apply to a model)",
-                          offsets, exc=TypeError)
+                          offsets)
     if not hasattr(est, "get_state"):
         from .._validation import param_error
         raise param_error("est", "an adaptid RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS",

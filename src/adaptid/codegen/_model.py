@@ -109,7 +109,7 @@ def _check_offsets(offsets, m):
     elif not isinstance(offsets, (tuple, list)) and np.ndim(offsets) == 0:
         y0, u0 = offsets, 0.0
     else:
-        raise param_error("offsets", want, offsets, exc=TypeError)
+        raise param_error("offsets", want, offsets)
     try:
         y0 = float(y0)
         u0 = np.broadcast_to(np.asarray(u0, dtype=float).reshape(-1), (m,))
