@@ -30,12 +30,16 @@ def export_c(state_file: Path, out: Path, name: str = "rls", float32: bool = Fal
     return write_c(est, out, name, float32)
 
 
-def write_c(est, out: Path, name: str = "rls", float32: bool = False, option: str = "--out"):
-    """Write ``est``'s C files (:func:`adaptid.codegen.to_c`); returns their paths. Errors: CLIError."""
+def write_c(est, out: Path, name: str = "rls", float32: bool = False, option: str = "--out",
+            offsets=None):
+    """Write ``est``'s C files (:func:`adaptid.codegen.to_c`); returns their paths. Errors: CLIError.
+
+    ``est`` may be a model or a streaming model object (``offsets``: its y0, u0)."""
     from adaptid.codegen import to_c
 
     try:
-        return to_c(est, out, name=name, dtype="float32" if float32 else "float64")
+        return to_c(est, out, name=name, dtype="float32" if float32 else "float64",
+                    offsets=offsets)
     except (ValueError, TypeError) as err:
         raise CLIError(str(err)) from None
     except OSError as err:

@@ -76,6 +76,10 @@ def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume,
         if kind == "dc-motor":
             raise CLIError("--export-c is not available with --dc-motor (two estimators on "
                            "filtered derivatives); use --y/--phi with the regressor columns")
+        if kind in ("arx", "ar", "fir") and structure.detrend == "linear":
+            raise CLIError("--export-c with --detrend linear: the C model removes constant "
+                           "offsets from raw measurements, a line cannot be continued; use "
+                           "--detrend constant")
         if not c_name.isidentifier() or not c_name.isascii():
             raise CLIError(f"--c-name must be a C identifier (letters, digits, _), got {c_name!r}")
         from ..codegen._generate import check_name
@@ -180,7 +184,7 @@ def _run_fit_locked(data, structure, spec, *, nan, out, save_state, resume, outp
         rep = _write_report(out, table, problem, fits, physical, result, checks=checks)
         result["report"] = str(rep.out / "index.html")
     _write_outputs(result, problem, fits, tracks=tracks, export_c=export_c, c_name=c_name,
-                   float32=float32)
+                   float32=float32, structure=structure)
     if rep is not None:
         rep.commit()  # after the other outputs: a failure there leaves no report
     _print(output, result, fits, physical, summ)
@@ -215,7 +219,7 @@ def _check_sample_counts(table, problem, spec, *, est0, save_state, output):
                         "do not determine the estimate (it stays near the prior)")
 
 
-def _write_outputs(result, problem, fits, *, tracks, export_c, c_name, float32):
+def _write_outputs(result, problem, fits, *, tracks, export_c, c_name, float32, structure=None):
     """--tracks FILE and --export-c DIR (after the fit and the report)."""
     if tracks is not None:
         from ..io import write_table
@@ -229,8 +233,20 @@ def _write_outputs(result, problem, fits, *, tracks, export_c, c_name, float32):
     if export_c is not None:
         from ._export import write_c
 
-        result["export_c"] = [str(p) for p in write_c(fits[0].estimator, export_c, c_name, float32,
-                                                      option="--export-c")]
+        est, offsets = fits[0].estimator, None
+        kind = getattr(structure, "kind", None)
+        if kind in ("arx", "ar", "fir") and not structure.intercept:
+            # issue 33 point 8: the model's NAME_step (lag buffers, --detrend offsets) with
+            # the estimator's NAME_update in the same files (docs/embedded.md)
+            from ..codegen._model import fit_offsets, stream_of_fit
+
+            na, nb, nk = (structure.arx if kind == "arx" else (structure.ar[0], 0, 1)
+                          if kind == "ar" else (0, *structure.fir))
+            m = 0 if kind == "ar" else len(problem.columns) - 1
+            est = stream_of_fit(est, na=na, nb=nb, nk=nk, n_inputs=m)
+            offsets = fit_offsets(problem.est_data, m)
+        result["export_c"] = [str(p) for p in write_c(est, export_c, c_name, float32,
+                                                      option="--export-c", offsets=offsets)]
 
 
 def _workflow(problem, structure, fits, fitted_models, *, want_figures) -> dict:

@@ -14,8 +14,33 @@ from ._generate import generate, write
 __all__ = ["to_c", "generate_c"]
 
 
-def to_c(est, directory, *, name="rls", dtype="float64"):
+def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
     r"""Write ``NAME.h`` and ``NAME.c``: the estimator's recursion in C, from its current state.
+
+    ``est`` may also be a model: a fitted :class:`~adaptid.models.ARX` /
+    :class:`~adaptid.models.AR` (θ fixed) or a streaming
+    :class:`~adaptid.models.RecursiveARX` / :class:`~adaptid.models.RecursiveAR`
+    (θ and its estimator's state, updated by the ``NAME_update`` below). The
+    files then add ``NAME_model_t``, ``NAME_model_init``, ``NAME_model_theta``
+    and ``real NAME_step(NAME_model_t *m, real y[, u])``, which keeps the lag
+    buffers (zero before the first sample, MATLAB's convention), removes the
+    offsets from the raw measurements, forms
+
+    .. math::
+
+        \varphi_k = [-(y_{k-1} - y_0), \dots, -(y_{k-n_a} - y_0),\;
+                     u^{(i)}_{k-n_k^{(i)}} - u^{(i)}_0, \dots,
+                     u^{(i)}_{k-n_k^{(i)}-n_b^{(i)}+1} - u^{(i)}_0, \dots]^T,
+
+    returns :math:`\hat y_k + y_0` with :math:`\hat y_k = \varphi_k^T\hat\theta_{k-1}`
+    (the one-step prediction made before :math:`y_k` is used, summed in the
+    order of NumPy's pairwise sum as ``RecursiveARX.step`` sums it), and for a
+    streaming object updates θ with :math:`(\varphi_k, y_k - y_0)`. The
+    header documents the regressor in a comment and in named constants
+    (``NAME_NA``, ``NAME_NB_i``, ``NAME_NK_i``, ``NAME_PHI_U_i``, ``NAME_Y0``,
+    ``NAME_U0_i``, ``NAME_START``). The predictor is the ARX model's linear
+    regression form (Ljung (1999), sec. 4.2; MATLAB's ``recursiveARX``
+    ``step``). See ``docs/embedded.md``, "C for a model".
 
     The generated code is C99 without dynamic memory or recursion, using only
     ``<math.h>``, ``<stdint.h>`` and ``<string.h>``; n (and the window M)
@@ -72,17 +97,25 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
 
     Parameters
     ----------
-    est : RLS, SlidingWindowRLS, KalmanRLS, LMS, NLMS or FastRLS
+    est : RLS, SlidingWindowRLS, KalmanRLS, LMS, NLMS, FastRLS; ARX, AR, RecursiveARX or RecursiveAR; NARX or RecursiveNARX
         Single stream and single output. A :class:`~adaptid.FastRLS`
         (``method="ftf"``) gets its own interface, ``NAME_update(s, u, y)``
-        taking the new input sample (see :mod:`adaptid.codegen._fastrls`). RLS forgetting: a constant λ (with or
+        taking the new input sample (see :mod:`adaptid.codegen._fastrls`).
+        A NARX predictor: ``NAME_step`` with its lag buffers
+        (:mod:`adaptid.codegen._narx`). RLS forgetting: a constant λ (with or
         without ``P_max``), ``Exponential``, ``Directional``, ``ConstantTrace``
-        or ``Variable``. Samples have weight 1 and the constant λ.
+        or ``Variable``. Samples have weight 1 and the constant λ. A model:
+        single output; a streaming object with a finite ``P0``.
     directory : str or os.PathLike
         Created if missing.
     name : str
         C identifier used as the file name and the prefix of every symbol.
     dtype : {"float64", "float32"}
+    offsets : float or tuple (y0, u0), optional
+        Models only: the offsets removed from the raw output and inputs
+        (``u0`` a number or one per input). Default: for an ARX / AR fitted
+        on an :class:`~adaptid.models.IDData` detrended with ``"constant"``,
+        the means it removed (a ValueError for a ``"linear"`` trend); else 0.
 
     Returns
     -------
@@ -108,7 +141,21 @@ def to_c(est, directory, *, name="rls", dtype="float64"):
     >>> h, c = to_c(est, tempfile.mkdtemp(), name="motor")
     >>> "double motor_update(motor_t *s, const double phi[MOTOR_N], double y);" in h.read_text()
     True
+    >>> from adaptid.models import RecursiveARX
+    >>> h, c = to_c(RecursiveARX(2, 2, 3), tempfile.mkdtemp(), name="dryer",
+    ...             offsets=(20.0, 5.0))
+    >>> "phi[2] = +(u(k-3) - DRYER_U0_0)" in h.read_text()
+    True
     """
+    from ._model import generate_model, is_model
+    if is_model(est):
+        from ._generate import write_texts
+        texts = generate_model(est, name=name, dtype=dtype, offsets=offsets)
+        return write_texts(texts, directory, name)
+    if offsets is not None:
+        from .._validation import param_error
+        raise param_error("offsets", "None for an estimator (offsets apply to an ARX/AR "
+                          "model or streaming object)", offsets)
     from ._narx import is_narx, write_narx
     if is_narx(est):  # a NARX predictor (codegen/_narx.py), not an estimator's recursion
         return write_narx(est, directory, name=name, dtype=dtype)

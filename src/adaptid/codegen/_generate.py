@@ -385,9 +385,14 @@ def write(state, directory, name="rls", dtype="float64"):
     written are they renamed over NAME.h and NAME.c. On any failure the
     temporary files are removed and existing files are left as they were.
     """
+    return write_texts(generate(state, name, dtype), directory, name)
+
+
+def write_texts(texts, directory, name):
+    """Write ``texts`` = (header, source) as NAME.h and NAME.c, a pair or not at all."""
     import os
     import tempfile
-    header, source = generate(state, name, dtype)
+    header, source = texts
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     h, c = out / f"{name}.h", out / f"{name}.c"
