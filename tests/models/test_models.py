@@ -408,7 +408,9 @@ def test_public_index():
                 # issue 33: streaming model objects
                 "RecursiveARX", "RecursiveAR", "StreamResult",
                 # issue 37: recursive instrumental variables
-                "RecursiveIV", "RecursiveIVResult"}
+                "RecursiveIV", "RecursiveIVResult",
+                # issue 33: streaming pseudo-linear model objects
+                "RecursiveARMAX", "RecursiveARMA", "RecursiveOE", "RecursiveBJ"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

@@ -60,9 +60,11 @@ analysis), :func:`etfe` (empirical transfer-function estimate),
 ``step_response``, ``poles`` and ``zeros`` with standard deviations).
 
 Streaming model objects (subpackage :mod:`adaptid.models.streaming`,
-MATLAB's ``recursiveARX``/``recursiveAR``): :class:`RecursiveARX`,
-:class:`RecursiveAR` — ``step(y, u)`` one sample at a time, ``run`` a
-record in one compiled pass (:class:`StreamResult`), state files.
+MATLAB's ``recursiveARX``/``recursiveAR``/…): :class:`RecursiveARX`,
+:class:`RecursiveAR`, :class:`RecursiveARMAX`, :class:`RecursiveARMA`,
+:class:`RecursiveOE`, :class:`RecursiveBJ` — ``step(y, u)`` one sample at
+a time, ``run`` a record in one compiled pass (:class:`StreamResult`),
+state files.
 """
 
 from __future__ import annotations
@@ -92,7 +94,8 @@ from .iv import RecursiveIV, RecursiveIVResult, iv4, ivx
 from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
                         etfe, spa, tfest)
 from ._workflow import CompareResult, OrderSelection, ResidResult, compare, resid, select_order
-from .streaming import RecursiveAR, RecursiveARX, StreamResult
+from .streaming import (RecursiveAR, RecursiveARMA, RecursiveARMAX, RecursiveARX, RecursiveBJ,
+                        RecursiveOE, StreamResult)
 
 # The DC-motor builder lives in its own module, loaded on first use.
 _LAZY = {
@@ -149,6 +152,10 @@ __all__ = [
     "StreamResult",
     "RecursiveIV",
     "RecursiveIVResult",
+    "RecursiveARMAX",
+    "RecursiveARMA",
+    "RecursiveOE",
+    "RecursiveBJ",
 ]
 
 
