@@ -64,6 +64,39 @@ class _PseudoLinearStream:
         self._start = (theta, U, D, dif)
         self._opts = (lam, Q, kalman, r2, M, mode, fp, pmax, dtol, 0, 0.0, 0.0)
 
+    def _use_core(self, estimator):
+        """Take the algorithm, options and prior of a core estimator (read, not modified;
+        RLS, SlidingWindowRLS, KalmanRLS, LMS, NLMS, as ``fit_recursive`` reads one), and
+        reset. For the CLI, whose options build that estimator."""
+        from ...estimators import KalmanRLS, LMS, NLMS, RLS, SlidingWindowRLS
+
+        kinds = ((SlidingWindowRLS, "forgetting"), (RLS, "forgetting"), (KalmanRLS, "kalman"),
+                 (NLMS, "ngradient"), (LMS, "gradient"))
+        method = next((m for c, m in kinds if isinstance(estimator, c)), None)
+        if method is None:
+            raise param_error("estimator", "an adaptid RLS, SlidingWindowRLS, KalmanRLS, LMS "
+                              "or NLMS", estimator, exc=TypeError)
+        if estimator.n_params != self.n_params:
+            raise param_error("estimator", f"an estimator with n_params={self.n_params}",
+                              f"<n_params={estimator.n_params}>")
+        self.method, self._est = method, estimator.copy()
+        self._configure()
+        self.reset()
+        return self
+
+    def _fitted_model(self, y, u=None):
+        """The batch model at the current θ as ``fit_recursive`` leaves it after a
+        ``start="filled"`` run over the record (y, u): roots reflected into the unit
+        circle, the prediction-error covariance at that θ, ``P``."""
+        import copy
+
+        model = copy.deepcopy(self._model)
+        args = model._record(y) if self._m == 0 else (y, u)
+        reg, Phi_fix = model._prepare(*args)
+        model._finish(model._stable(self.theta), Phi_fix, reg.y, reg)
+        model.P = self.P
+        return model
+
     # ------------------------------------------------------------ state
     def reset(self):
         """Back to the prior (θ₀, P₀): zero lag buffers and signal history, counts at 0."""
