@@ -342,3 +342,18 @@ def test_bad_input():
     for key in ("theta", "U", "D", "vh", "ybuf", "ubuf"):
         np.testing.assert_array_equal(after[key], before[key])
     assert after["options"] == before["options"]
+
+
+def test_long_window_state_file(tmp_path):
+    # the window buffer (M, n) is longer than a state file's side bound (2048): stored packed
+    rng = np.random.default_rng(1)
+    y, u = rng.standard_normal(3000), rng.standard_normal(3000)
+    obj = RecursiveARMAX(1, 1, 1, 1, window=2500)
+    obj.run(y[:2600], u[:2600])
+    obj.save_state(tmp_path / "w.npz")
+    back = RecursiveARMAX.load_state(tmp_path / "w.npz")
+    np.testing.assert_array_equal(back.run(y[2600:], u[2600:]).theta,
+                                  obj.run(y[2600:], u[2600:]).theta)
+    # beyond what a file holds: refused at save, naming the limit
+    with pytest.raises(ValueError, match="2048"):
+        RecursiveARMAX(1, 1, 1, 1, window=2_000_000).save_state(tmp_path / "x.npz")

@@ -23,6 +23,20 @@ __all__ = ["_PseudoLinearStream"]
 _STATE_FORMAT = 1
 #: the arrays of the recursion's state (attribute ``_<name>``), in the order the kernel takes
 _ARRAYS = ("theta", "U", "D", "vh", "Bphi", "By")
+#: arrays stored as a zero-padded square (a window buffer, the diffuse state): a state
+#: file bounds every side of an array by one size
+_PACKED = ("Bphi", "By", "dif")
+
+
+def _packed(a):
+    """``a`` raveled into the smallest zero-padded square."""
+    flat = a.ravel()
+    c = max(1, int(np.ceil(np.sqrt(flat.size))))
+    while c * c < flat.size:
+        c += 1
+    out = np.zeros(c * c)
+    out[: flat.size] = flat
+    return out.reshape(c, c)
 
 
 class _PseudoLinearStream:
@@ -269,8 +283,8 @@ class _PseudoLinearStream:
                  count=self._count, k=self._k)
         arrays = {a: np.array(getattr(self, "_" + a), dtype=np.float64) for a in _ARRAYS}
         arrays.update(dif=self._dif, ybuf=self._ybuf, ubuf=self._ubuf.copy())
-        arrays = {k: (v.reshape(1, -1).copy() if v.ndim == 1 else v.copy())
-                  for k, v in arrays.items()}
+        arrays = {k: (_packed(v) if k in _PACKED else v.reshape(1, -1).copy() if v.ndim == 1
+                      else v.copy()) for k, v in arrays.items()}
         side = max([1] + [d for v in arrays.values() for d in v.shape])
         return {"estimator": self._kind, "format": _STATE_FORMAT, "n_params": side,
                 "options": o, "inner": self._est.get_state(), **arrays}
@@ -283,7 +297,15 @@ class _PseudoLinearStream:
 
     def save_state(self, path):
         """Write the state to ``path`` (adaptid's versioned, checksummed ``.npz``; never pickle)."""
+        from ...estimators._stateread import MAX_PARAMS
         from ...estimators._statefile import save_state
+
+        side = self.get_state()["n_params"]
+        if side > MAX_PARAMS:
+            raise ValueError(f"the {type(self).__name__} cannot be saved: its arrays need a "
+                             f"side of {side} > {MAX_PARAMS}, the largest a state file holds "
+                             "(a window buffer of window × n_params entries beyond "
+                             f"{MAX_PARAMS}²)")
         save_state(self, path)
 
     @classmethod

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..._validation import param_error
 from ._arx import _METHODS
+from ._plr import _PACKED
 
 __all__ = ["restore"]
 
@@ -61,7 +62,13 @@ def restore(cls, state):
     mine = {}
     for key, a in arrays.items():
         like = getattr(obj, "_" + key)
-        a = a.reshape(like.shape) if a.size == like.size else a
+        if key in _PACKED:  # a zero-padded square
+            flat = a.ravel()
+            a = (flat[: like.size].reshape(like.shape)
+                 if a.ndim == 2 and a.shape[0] == a.shape[1] and flat.size >= like.size
+                 and not np.any(flat[like.size:]) else a)
+        elif a.size == like.size:
+            a = a.reshape(like.shape)
         if a.shape != like.shape or not np.isfinite(a).all():
             raise param_error(f"state[{key!r}]", f"finite, of shape {like.shape}",
                               f"<shape {arrays[key].shape}>")
