@@ -357,3 +357,19 @@ def test_long_window_state_file(tmp_path):
     # beyond what a file holds: refused at save, naming the limit
     with pytest.raises(ValueError, match="2048"):
         RecursiveARMAX(1, 1, 1, 1, window=2_000_000).save_state(tmp_path / "x.npz")
+
+
+def test_result_summary_and_plot(data):
+    import matplotlib
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    y, u = data
+    res = RecursiveBJ(2, 1, 1, 2, 1, start="filled").run(y, u)
+    text = res.summary()
+    assert f"{N} samples, {N - 2} one-step predictions" in text
+    assert all(name in text for name in res.names)
+    assert f"{res.theta[-1, 0]: .6g}" in text
+    fig = res.plot()
+    assert isinstance(fig, Figure)
+    assert [a.get_ylabel() for a in fig.axes] == list(res.names)   # one panel per parameter

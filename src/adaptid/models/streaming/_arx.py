@@ -43,6 +43,22 @@ class StreamResult:
         frame["yhat"] = self.yhat
         return frame
 
+    def summary(self) -> str:
+        """A few lines: the number of samples (and of predictions made), the final estimate."""
+        N = self.theta.shape[0]
+        made = int(np.sum(~np.isnan(self.yhat)))
+        lines = [f"Streaming estimate: {N} samples, {made} one-step predictions"]
+        if N:
+            lines += [f"  {n:>8s} = {v: .6g}" for n, v in zip(self.names, self.theta[-1])]
+        return "\n".join(lines)
+
+    def plot(self, *, ax=None):
+        """The parameter tracks (:func:`adaptid.plot.tracks`, sample 1 … N); returns the Figure."""
+        from ...estimators._hooks import upward
+        tracks = upward("adaptid.plot").tracks  # drawing lives in layer 7
+
+        return tracks(np.arange(1, self.theta.shape[0] + 1), self.theta, self.names, ax=ax)
+
 
 def _core_estimator(method, n, *, forgetting, noise_cov, noise_var, step, bias, window,
                     theta0, P0):
