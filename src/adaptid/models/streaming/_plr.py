@@ -17,26 +17,13 @@ import numpy as np
 
 from ..._validation import as_float_array, check_choice, param_error
 from ._arx import _METHODS, _STARTS, RecursiveARX, StreamResult, _core_estimator
+from ._plr_state import _PACKED, _packed, restore
 
 __all__ = ["_PseudoLinearStream"]
 
 _STATE_FORMAT = 1
 #: the arrays of the recursion's state (attribute ``_<name>``), in the order the kernel takes
 _ARRAYS = ("theta", "U", "D", "vh", "Bphi", "By")
-#: arrays stored as a zero-padded square (a window buffer, the diffuse state): a state
-#: file bounds every side of an array by one size
-_PACKED = ("Bphi", "By", "dif")
-
-
-def _packed(a):
-    """``a`` raveled into the smallest zero-padded square."""
-    flat = a.ravel()
-    c = max(1, int(np.ceil(np.sqrt(flat.size))))
-    while c * c < flat.size:
-        c += 1
-    out = np.zeros(c * c)
-    out[: flat.size] = flat
-    return out.reshape(c, c)
 
 
 class _PseudoLinearStream:
@@ -292,7 +279,6 @@ class _PseudoLinearStream:
     @classmethod
     def from_state(cls, state: dict):
         """Rebuild from :meth:`get_state`'s dict (exact round trip)."""
-        from ._plr_state import restore
         return restore(cls, state)
 
     def save_state(self, path):

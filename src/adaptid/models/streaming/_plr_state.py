@@ -6,9 +6,23 @@ import numpy as np
 
 from ..._validation import param_error
 from ._arx import _METHODS
-from ._plr import _PACKED
 
 __all__ = ["restore"]
+
+#: arrays stored as a zero-padded square (a window buffer, the diffuse state): a state
+#: file bounds every side of an array by one size
+_PACKED = ("Bphi", "By", "dif")
+
+
+def _packed(a):
+    """``a`` raveled into the smallest zero-padded square."""
+    flat = a.ravel()
+    c = max(1, int(np.ceil(np.sqrt(flat.size))))
+    while c * c < flat.size:
+        c += 1
+    out = np.zeros(c * c)
+    out[: flat.size] = flat
+    return out.reshape(c, c)
 
 
 def _header(cls, state):
