@@ -373,3 +373,18 @@ def test_result_summary_and_plot(data):
     fig = res.plot()
     assert isinstance(fig, Figure)
     assert [a.get_ylabel() for a in fig.axes] == list(res.names)   # one panel per parameter
+
+
+@pytest.mark.parametrize("strategy", [adaptid.forgetting.Directional(0.98),
+                                      adaptid.forgetting.Variable(0.95, 0.1, 200.0)])
+def test_forgetting_strategy_equals_fit_recursive(data, strategy):
+    y, u = data
+    obj = RecursiveARMAX(2, 2, 1, 1, forgetting=strategy, start="filled")
+    res = obj.run(y, u)
+    traj = ARMAX(2, 2, 1, 1).fit_recursive(y, u, adaptid.RLS(5, forgetting=strategy))
+    np.testing.assert_array_equal(res.theta[2:], traj.theta)
+    # and piecewise, through a state file's dict
+    a = RecursiveARMAX(2, 2, 1, 1, forgetting=strategy, start="filled")
+    a.run(y[:150], u[:150])
+    b = RecursiveARMAX.from_state(a.get_state())
+    np.testing.assert_array_equal(b.run(y[150:], u[150:]).theta, res.theta[150:])
