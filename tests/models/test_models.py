@@ -416,7 +416,9 @@ def test_public_index():
                 # issue 35: streaming NARX
                 "RecursiveNARX",
                 # issue 36: frequency-dependent resolution spectral analysis, compare
-                "spafdr", "FrequencyCompareResult"}
+                "spafdr", "FrequencyCompareResult",
+                # issue 33: streaming pseudo-linear model objects
+                "RecursiveARMAX", "RecursiveARMA", "RecursiveOE", "RecursiveBJ"}
     assert set(models.__all__) == expected
     with pytest.raises(AttributeError):
         models.no_such_name  # noqa: B018

@@ -2,10 +2,11 @@ r"""``adaptid fit`` with the model objects: ARMA/BJ fits, validation, summary ta
 
 * ``--arma`` / ``--bj`` regress on signals filtered with the running
   estimate (pseudo-linear regression), so they cannot be a fixed Φ run by an
-  estimator: they go through :meth:`adaptid.models.ARMA.fit_recursive` /
-  :meth:`~adaptid.models.BJ.fit_recursive` (``--method rls|window|kalman``,
-  the estimator built by :func:`adaptid.estimator` is read for its options)
-  or ``fit`` (``--method batch``).
+  estimator: a recursive ``--method`` runs the streaming object
+  (:class:`adaptid.models.RecursiveARMA` / :class:`~adaptid.models.RecursiveBJ`,
+  ``start="filled"``, so equal to the models' ``fit_recursive``; the
+  estimator built by :func:`adaptid.estimator` is read for its algorithm and
+  options, lms and nlms included), ``--method batch`` the models' ``fit``.
 * ``--validate`` / the report's figures use :func:`adaptid.models.compare`
   (simulation for input–output models, one-step prediction for AR/ARMA) and
   :func:`adaptid.models.resid` on the held-out part, with the model at the
@@ -70,10 +71,8 @@ def fit_model_equation(problem, s, spec: MethodSpec, *, nan_policy, advance=None
                 track, error, index = None, np.asarray(model.residuals), np.asarray(model.index)
             else:
                 d = _n_params(problem, s, 1 if U is None or np.ndim(U) == 1 else U.shape[1])
-                est = spec.make(d, nan_policy)
-                traj = model.fit_recursive(*args, est)
-                track, error = np.asarray(traj.theta), np.asarray(traj.error)
-                index = np.asarray(traj.meta["index"])
+                model, track, error, index = _stream_fit(problem, s, spec.make(d, nan_policy),
+                                                         args)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:
             raise CLIError(f"--{problem.kind}: {e}") from None
     for w in rec:
@@ -98,6 +97,22 @@ def fit_model_equation(problem, s, spec: MethodSpec, *, nan_policy, advance=None
         n_skipped=0, error=error, index=index, track=track, rms_error=rms)
     fit.warnings = caught
     return fit, model
+
+
+def _stream_fit(problem, s, est, args):
+    """The streaming object (start="filled", the estimator's algorithm) over the record:
+    (model as fit_recursive leaves it, tracks, a-priori errors, sample index)."""
+    from adaptid.models import RecursiveARMA, RecursiveBJ
+
+    dt = problem.data.dt if problem.data is not None else 1.0
+    obj = (RecursiveARMA(*s.arma, start="filled", dt=dt) if problem.kind == "arma"
+           else RecursiveBJ(*s.bj, start="filled", dt=dt))._use_core(est)
+    res = obj.run(*args)
+    first = min(obj._s, len(res.yhat))
+    y = np.asarray(problem.est_data.y, dtype=np.float64).reshape(-1)
+    error = y[first:] - res.yhat[first:]
+    return (obj._fitted_model(*args), res.theta[first:], error,
+            np.arange(first, len(res.yhat)))
 
 
 def _n_params(problem, s, m):

@@ -68,9 +68,11 @@ analysis), :func:`etfe` (empirical transfer-function estimate),
 ``step_response``, ``poles`` and ``zeros`` with standard deviations).
 
 Streaming model objects (subpackage :mod:`adaptid.models.streaming`,
-MATLAB's ``recursiveARX``/``recursiveAR``): :class:`RecursiveARX`,
-:class:`RecursiveAR` — ``step(y, u)`` one sample at a time, ``run`` a
-record in one compiled pass (:class:`StreamResult`), state files.
+MATLAB's ``recursiveARX``/``recursiveAR``/…): :class:`RecursiveARX`,
+:class:`RecursiveAR`, :class:`RecursiveARMAX`, :class:`RecursiveARMA`,
+:class:`RecursiveOE`, :class:`RecursiveBJ` — ``step(y, u)`` one sample at
+a time, ``run`` a record in one compiled pass (:class:`StreamResult`),
+state files.
 """
 
 from __future__ import annotations
@@ -98,15 +100,13 @@ from .nonlinear import NARX, RecursiveNARX, SINDy, stlsq
 from .regularised import arx_regul, impulseest, kernel_matrix
 from .iv import RecursiveIV, RecursiveIVResult, iv4, ivx
 from .closedloop import FeedbackResult, checkfeedback, indirect, two_stage
-from .frequency import (FrequencyResponse, Roots, StepResponse, TransferFunctionModel,
-                        etfe, spa, tfest)
 from .mimo import MIMOARX
-from .iv import iv4, ivx
 from .frequency import (FrequencyCompareResult, FrequencyResponse, Roots, StepResponse,
                         TransferFunctionModel, etfe, spa, spafdr, tfest)
 from ._workflow import CompareResult, ResidResult, compare, resid
 from ._selection import OrderSelection, select_order
-from .streaming import RecursiveAR, RecursiveARX, StreamResult
+from .streaming import (RecursiveAR, RecursiveARMA, RecursiveARMAX, RecursiveARX, RecursiveBJ,
+                        RecursiveOE, StreamResult)
 
 # The DC-motor builder lives in its own module, loaded on first use.
 _LAZY = {
@@ -171,6 +171,10 @@ __all__ = [
     "RecursiveNARX",
     "spafdr",
     "FrequencyCompareResult",
+    "RecursiveARMAX",
+    "RecursiveARMA",
+    "RecursiveOE",
+    "RecursiveBJ",
 ]
 
 

@@ -244,3 +244,13 @@ def test_errors():
         RecursiveAR(1).run((np.ones(5), np.ones(5)))
     with pytest.raises(ValueError):
         RecursiveARX(0, 0, 1)
+
+
+def test_ar_model_predicts_as_a_fitted_ar(data):
+    # RecursiveAR.to_model() once lacked AR's internal all-zero input column: predict raised
+    y, _ = data
+    obj = RecursiveAR(2)
+    th = obj.run(y).theta[-1]
+    ref = AR(2).fit(y)
+    ref.theta = th.copy()
+    np.testing.assert_array_equal(obj.to_model().predict(y), ref.predict(y))

@@ -3,6 +3,7 @@ datasets and fleet call.
 
 ``_residuals`` (recursive residuals), ``_breakpoints`` (recursive and moving
 estimates, F statistics, break dating), ``_pseudolinear`` (the pseudo-linear
-regressions of ARMAX/OE/BJ), ``_simulators`` (the DC motor), ``_fleet`` (the
+regressions of ARMAX/OE/BJ), ``_plr_stream`` (the same, resumable, for the
+streaming model objects), ``_simulators`` (the DC motor), ``_fleet`` (the
 per-group scans of :mod:`adaptid.fleet`).
 """

@@ -43,6 +43,47 @@ class StreamResult:
         frame["yhat"] = self.yhat
         return frame
 
+    def summary(self) -> str:
+        """A few lines: the number of samples (and of predictions made), the final estimate."""
+        N = self.theta.shape[0]
+        made = int(np.sum(~np.isnan(self.yhat)))
+        lines = [f"Streaming estimate: {N} samples, {made} one-step predictions"]
+        if N:
+            lines += [f"  {n:>8s} = {v: .6g}" for n, v in zip(self.names, self.theta[-1])]
+        return "\n".join(lines)
+
+    def plot(self, *, ax=None):
+        """The parameter tracks (:func:`adaptid.plot.tracks`, sample 1 … N); returns the Figure."""
+        from ...estimators._hooks import upward
+        tracks = upward("adaptid.plot").tracks  # drawing lives in layer 7
+
+        return tracks(np.arange(1, self.theta.shape[0] + 1), self.theta, self.names, ax=ax)
+
+
+def _core_estimator(method, n, *, forgetting, noise_cov, noise_var, step, bias, window,
+                    theta0, P0):
+    """The core estimator of MATLAB's ``method`` (checked) with the streaming options."""
+    from ...estimators._factory import estimator
+
+    opts = {} if theta0 is None else {"theta0": theta0}
+    core = _METHODS[method]
+    if window is not None:
+        if method != "forgetting":
+            raise param_error("window", "None unless method='forgetting' (MATLAB's finite "
+                              "history)", window)
+        core = "window"
+        opts.update(window=window, forgetting=forgetting, P0=P0)
+    elif core == "rls":
+        opts.update(forgetting=forgetting, P0=P0)
+    elif core == "kalman":
+        Q = noise_cov * np.eye(n) if np.ndim(noise_cov) == 0 else noise_cov
+        opts.update(process_cov=Q, noise_var=noise_var, P0=P0)
+    else:
+        opts.update(step=step)
+        if core == "nlms" and bias is not None:
+            opts["eps"] = bias
+    return estimator(core, n, **opts)
+
 
 def _row_dot(Phi, Th):
     """φₖᵀθₖ row by row (the one formula of step and run: equal bit for bit)."""
@@ -174,31 +215,13 @@ class RecursiveARX:
     def __init__(self, na, nb, nk=1, *, method="forgetting", forgetting=1.0, noise_cov=0.1,
                  noise_var=1.0, step=1.0, bias=None, window=None, theta0=None, P0=1e4,
                  start="zero", dt=1.0):
-        from ...estimators._factory import estimator
-
         self._init_structure(*self._make_model(na, nb, nk, dt))
         self.method = check_choice(method, "method", tuple(_METHODS))
         self.start = check_choice(start, "start", _STARTS)
         self.dt = self._model.dt
-        n = self.n_params
-        opts = {} if theta0 is None else {"theta0": theta0}
-        core = _METHODS[self.method]
-        if window is not None:
-            if self.method != "forgetting":
-                raise param_error("window", "None unless method='forgetting' (MATLAB's finite "
-                                  "history)", window)
-            core = "window"
-            opts.update(window=window, forgetting=forgetting, P0=P0)
-        elif core == "rls":
-            opts.update(forgetting=forgetting, P0=P0)
-        elif core == "kalman":
-            Q = noise_cov * np.eye(n) if np.ndim(noise_cov) == 0 else noise_cov
-            opts.update(process_cov=Q, noise_var=noise_var, P0=P0)
-        else:
-            opts.update(step=step)
-            if core == "nlms" and bias is not None:
-                opts["eps"] = bias
-        self._est = estimator(core, n, **opts)
+        self._est = _core_estimator(self.method, self.n_params, forgetting=forgetting,
+                                    noise_cov=noise_cov, noise_var=noise_var, step=step,
+                                    bias=bias, window=window, theta0=theta0, P0=P0)
         self.reset()
 
     def _make_model(self, na, nb, nk, dt):
@@ -365,6 +388,8 @@ class RecursiveARX:
         import copy
 
         model = copy.deepcopy(self._model)
+        if self._m == 0:  # AR: the internal all-zero input column of AR's own fit
+            model._set_inputs(1, True)
         model.dt = self.dt
         model.theta = self.theta
         model.names = self.names
