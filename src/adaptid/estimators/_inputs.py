@@ -124,9 +124,9 @@ def run_arrays(self, Phi, y, weights, batched, precheck=True):
             raise param_error("y", f"of shape {shape_N + (p,)} for n_outputs={p}",
                               f"<shape {Y.shape}>")
         Y = Y.reshape(Y.shape + (1,))
-    elif self._single:
-        raise param_error("y", f"of shape {shape_N} (single output; construct with "
-                          "n_outputs=p for several outputs)", f"<shape {Y.shape}>")
+    elif self._single and Y.shape[-1] != 1:  # (N, 1) is one output, as lstsq and the models take it
+        raise param_error("y", f"of shape {shape_N} or {shape_N + (1,)} (single output; "
+                          "construct with n_outputs=p for several outputs)", f"<shape {Y.shape}>")
     if Y.shape != shape_N + (p,):
         want = shape_N if self._single else shape_N + (p,)
         raise param_error("y", f"of shape {want} to match Phi", f"<shape {Y.shape[:lead] if self._single else Y.shape}>")
