@@ -252,3 +252,19 @@ class ARX(_PolyModel, metaclass=ABCMeta):
 
 
 ARX.register(MIMOARX)   # isinstance(m, ARX) holds for the multi-output model ARX(matrices) makes
+
+
+def single_output_arx(na, nb, nk, *, where):
+    """``ARX(na, nb, nk)`` for functions that are single-output (iv4, ivx, arx_regul).
+
+    Order matrices would make a :class:`MIMOARX`, which their code cannot use:
+    refused with a ValueError naming ``na`` and the function.
+    """
+    from .._validation import param_error
+
+    model = ARX(na, nb, nk)
+    if not isinstance(model, _PolyModel):
+        raise param_error("na", f"a scalar order ({where} fits one output; for several outputs "
+                          "use adaptid.models.ARX with order matrices)", na)
+    return model
+

@@ -6,7 +6,7 @@ import numpy as np
 from scipy import linalg, signal
 
 from ..._validation import as_float_array, param_error
-from .._arx import ARX
+from .._arx import single_output_arx
 
 __all__ = ["iv4", "ivx"]
 
@@ -33,7 +33,7 @@ def _iv_solve(Z, Phi, y):
 def _iv_model(na, nb, nk):
     """An ARX whose rows are formed on the runs of complete samples of each experiment,
     kept for the instrument rows (which then match the regressor rows one for one)."""
-    model = ARX(na, nb, nk)
+    model = single_output_arx(na, nb, nk, where="instrumental-variable estimation")
     model._splits_at_gaps = True
     return model
 

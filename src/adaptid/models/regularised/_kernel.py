@@ -6,7 +6,7 @@ import numpy as np
 from scipy import linalg
 
 from ..._validation import check_int, param_error
-from .._arx import ARX
+from .._arx import ARX, single_output_arx
 
 __all__ = ["impulseest", "arx_regul", "kernel_matrix"]
 
@@ -430,7 +430,7 @@ def arx_regul(data, na, nb, nk=1, *, u=None, kernel="TC", hyperparameters=None,
     True
     """
     kernel = _check_kernel(kernel)
-    model = ARX(na, nb, nk)
+    model = single_output_arx(na, nb, nk, where="arx_regul")
     yv, U = model._data(data, u, fitting=True)
     if min(model._nb) < 1:
         raise param_error("nb", ">= 1 for every input", nb)
