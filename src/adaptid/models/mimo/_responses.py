@@ -168,6 +168,67 @@ class Responses:
             vi_ = np.einsum("ri,ij,rj->r", g.imag, S, g.imag)
         return Roots(lam, np.sqrt(np.abs(vr_)), np.sqrt(np.abs(vi_)))
 
+    def _observer_form(self, theta=None):
+        """(A, B, C, D) of the block observer-canonical realization of A(q)⁻¹B(q)."""
+        A, B = self._polymats(theta)
+        ny, nu = A.shape[1], B.shape[2]
+        L = max(A.shape[0] - 1, B.shape[0] - 1, 1)
+        Ap = np.zeros((L + 1, ny, ny))
+        Ap[:A.shape[0]] = A
+        Bp = np.zeros((L + 1, ny, nu))
+        Bp[:B.shape[0]] = B
+        D = Bp[0]
+        Ao, Bo = np.zeros((ny * L, ny * L)), np.zeros((ny * L, nu))
+        for i in range(1, L + 1):
+            rows = slice((i - 1) * ny, i * ny)
+            Ao[rows, :ny] = -Ap[i]
+            if i < L:
+                Ao[rows, i * ny:(i + 1) * ny] = np.eye(ny)
+            Bo[rows] = Bp[i] - Ap[i] @ D
+        C = np.zeros((ny, ny * L))
+        C[:, :ny] = np.eye(ny)
+        return Ao, Bo, C, D.copy()
+
+    def zeros(self):
+        r"""Transmission zeros with first-order standard deviations.
+
+        The invariant zeros of the block observer-canonical realization of
+        :math:`A(q)^{-1}B(q)` (:math:`x_1 = y - B_0u`, :math:`x_{i+1}` the
+        remaining lags; observable, and controllable when A and B are left
+        coprime): the finite generalised eigenvalues of the Rosenbrock pencil
+        (Emami-Naeini and Van Dooren 1982), as
+        :meth:`adaptid.models.StateSpaceModel.zeros` computes them. The
+        parameter covariance is carried to the realization's entries by
+        their Jacobian in θ (exact central differences: each entry is at
+        most linear in any one coefficient), then to each simple zero by
+        :math:`\partial z = w^H(\partial F)v/(w^HEv)`.
+
+        Returns
+        -------
+        Roots or list of lists of Roots
+            One ``Roots`` for a square model (ny = nu), else ``[output][input]``
+            the zeros of each channel.
+        """
+        from ..statespace._uncertainty import pack, zeros_sd
+
+        self._check_fitted()
+        Ao, Bo, C, D = self._observer_form()
+        K = np.zeros((Ao.shape[0], C.shape[0]))
+        d = self.theta.size
+        J = np.empty((pack(Ao, Bo, C, D, K).size, d))
+        for j in range(d):
+            e = np.zeros(d)
+            e[j] = 1.0
+            hi = pack(*self._observer_form(self.theta + e), K)
+            lo = pack(*self._observer_form(self.theta - e), K)
+            J[:, j] = 0.5 * (hi - lo)
+        cov = J @ np.asarray(self.cov, dtype=float) @ J.T
+        out = zeros_sd(_Realization(Ao, Bo, C, D), cov)
+        if isinstance(out, list):
+            return [[_transmission(r, Ao, Bo[:, [c]], C[[i]]) for c, r in enumerate(row)]
+                    for i, row in enumerate(out)]
+        return _transmission(out, Ao, Bo, C)
+
     def rsample(self, n, seed=None):
         r"""n models with θ drawn from :math:`N(\hat\theta, \mathrm{cov})`: MATLAB's ``rsample``.
 
@@ -197,3 +258,28 @@ class Responses:
             m.theta = th
             out.append(m)
         return out
+
+
+class _Realization:
+    """A, B, C, D of a realization (what :func:`..statespace._uncertainty.zeros_sd` reads)."""
+
+    def __init__(self, A, B, C, D):
+        self.A, self.B, self.C, self.D = A, B, C, D
+
+
+def _transmission(roots, A, B, C, rtol=1e-7):
+    """``roots`` without the decoupling zeros of (A, B, C) (PBH rank test at each zero)."""
+    from ..frequency._roots import Roots
+
+    n = A.shape[0]
+    scale = max(np.abs(A).max(), np.abs(B).max(), np.abs(C).max(), 1.0)
+    keep = []
+    for z in roots.values:
+        M = A - z * np.eye(n)
+        sc = np.linalg.svd(np.hstack([M, B]), compute_uv=False)[-1] if n else 1.0
+        so = np.linalg.svd(np.vstack([M, C]), compute_uv=False)[-1] if n else 1.0
+        keep.append(min(sc, so) > rtol * scale)
+    keep = np.array(keep, dtype=bool)
+    pick = (lambda a: None if a is None else np.asarray(a)[keep])  # noqa: E731
+    return Roots(roots.values[keep], pick(roots.sd_real), pick(roots.sd_imag))
+
