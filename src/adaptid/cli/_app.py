@@ -239,7 +239,8 @@ def fit(
     y: Annotated[Optional[str], typer.Option("--y", help="Output column.", rich_help_panel="Model")] = None,
     phi: Annotated[Optional[str], typer.Option("--phi", help="Regressor columns, comma separated.",
                                                rich_help_panel="Model")] = None,
-    u: Annotated[Optional[str], typer.Option("--u", help="Input column(s) for --arx / --fir.",
+    u: Annotated[Optional[str], typer.Option("--u", help="Input column(s) for --arx, --fir, "
+                                             "--armax, --oe, --bj.",
                                              rich_help_panel="Model")] = None,
     arx: Annotated[Optional[str], typer.Option("--arx", metavar="NA,NB,NK", help="ARX model orders.",
                                                rich_help_panel="Model")] = None,
@@ -255,6 +256,18 @@ def fit(
                                               "model y = B/F u + C/D e, the orders for every --u "
                                               "input (recursive: pseudo-linear regression).",
                                               rich_help_panel="Model")] = None,
+    armax: Annotated[Optional[str], typer.Option("--armax", metavar="NA,NB,NC,NK", help="ARMAX "
+                                                 "model A y = B u + C e, the orders for every --u "
+                                                 "input (recursive: extended least squares).",
+                                                 rich_help_panel="Model")] = None,
+    oe: Annotated[Optional[str], typer.Option("--oe", metavar="NB,NF,NK", help="Output-error model "
+                                              "y = B/F u + e, the orders for every --u input "
+                                              "(recursive: pseudo-linear regression).",
+                                              rich_help_panel="Model")] = None,
+    dt: Annotated[Optional[float], typer.Option("--dt", metavar="SECONDS", help="Sample time of "
+                                                "the model (default: the step of the --time "
+                                                "column, else 1; must agree with it).",
+                                                rich_help_panel="Model")] = None,
     intercept: Annotated[bool, typer.Option("--intercept", help="--arx/--fir: add a constant "
                                             "parameter (regressor 1), named 'intercept'.",
                                             rich_help_panel="Model")] = False,
@@ -301,7 +314,12 @@ def fit(
                                                       rich_help_panel="Model")] = None,
     method: Annotated[Optional[str], typer.Option("--method", "-m",
                                                   metavar="rls|window|kalman|lms|nlms|batch",
-                                                  help="Estimator (default rls).",
+                                                  help="Estimator. Default: a model option "
+                                                  "(--arx, --armax, --oe, --bj, --ar, --arma, "
+                                                  "--fir) runs the model's batch fit, unless a "
+                                                  "recursive option (--forgetting, --window, "
+                                                  "--P0, --tracks, --export-c, --save-state, …) "
+                                                  "is given; otherwise rls.",
                                                   rich_help_panel="Method")] = None,
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1] (rls, window).",
                                                         rich_help_panel="Method")] = None,
@@ -321,9 +339,11 @@ def fit(
                                                   rich_help_panel="Method")] = None,
     eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε ≥ 0 (nlms; "
                                                  "default 2.2e-16).", rich_help_panel="Method")] = None,
-    nan: Annotated[str, typer.Option("--nan", metavar="skip|error", help="Rows with missing values: "
-                                     "skip them (counted) or stop with an error.")] = "error",
-    out_dir: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write a report folder.")] = None,
+    nan: Annotated[str, typer.Option("--nan", metavar="raise|skip", help="Rows with missing values "
+                                     "(Python's nan_policy): stop with an error (raise; 'error' "
+                                     "is accepted as the same) or skip them (counted).")] = "raise",
+    out_dir: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for the HTML "
+                                                    "report (index.html and its figures).")] = None,
     save_state: Annotated[Optional[Path], typer.Option("--save-state", help="Save the estimator's "
                                                        "state after the run.")] = None,
     resume: Annotated[Optional[Path], typer.Option("--resume", help="Continue from a saved state.")] = None,
@@ -349,7 +369,9 @@ def fit(
             arx=parse_orders(arx, "--arx", ("na", "nb", "nk")),
             fir=parse_orders(fir_, "--fir", ("nb", "nk")),
             ar=parse_orders(ar, "--ar", ("na",)), arma=parse_orders(arma, "--arma", ("na", "nc")),
-            bj=parse_orders(bj, "--bj", ("nb", "nc", "nd", "nf", "nk")), dc_motor=dc_motor,
+            bj=parse_orders(bj, "--bj", ("nb", "nc", "nd", "nf", "nk")),
+            armax=parse_orders(armax, "--armax", ("na", "nb", "nc", "nk")),
+            oe=parse_orders(oe, "--oe", ("nb", "nf", "nk")), dt=dt, dc_motor=dc_motor,
             time=time, voltage=voltage, current=current, speed=speed, cutoff=cutoff,
             speed_kind=None if speed_kind is None else speed_kind.strip().lower(),
             intercept=intercept, detrend=None if detrend is None else detrend.strip().lower(),
