@@ -401,7 +401,28 @@ def fleet(
                                                  "Regression (instead of --y/--phi).")] = None,
     time: Annotated[Optional[str], typer.Option("--time", help="Ordering column (rows sorted by it "
                                                 "within each device; default: stored order).")] = None,
-    method: Annotated[str, typer.Option("--method", "-m", metavar="rls|window|kalman|lms|nlms")] = "rls",
+    u: Annotated[Optional[str], typer.Option("--u", help="Input column(s) of a model option.",
+                                             rich_help_panel="Model")] = None,
+    arx: Annotated[Optional[str], typer.Option("--arx", metavar="NA,NB,NK", help="ARX model orders "
+                                               "(as adaptid fit).", rich_help_panel="Model")] = None,
+    fir_: Annotated[Optional[str], typer.Option("--fir", metavar="NB,NK", help="FIR model orders.",
+                                                rich_help_panel="Model")] = None,
+    ar: Annotated[Optional[str], typer.Option("--ar", metavar="NA", help="AR model order.",
+                                              rich_help_panel="Model")] = None,
+    arma: Annotated[Optional[str], typer.Option("--arma", metavar="NA,NC", help="ARMA orders "
+                                                "(batch only).", rich_help_panel="Model")] = None,
+    armax: Annotated[Optional[str], typer.Option("--armax", metavar="NA,NB,NC,NK", help="ARMAX "
+                                                 "orders (batch only).", rich_help_panel="Model")] = None,
+    oe: Annotated[Optional[str], typer.Option("--oe", metavar="NB,NF,NK", help="Output-error orders "
+                                              "(batch only).", rich_help_panel="Model")] = None,
+    bj: Annotated[Optional[str], typer.Option("--bj", metavar="NB,NC,ND,NF,NK", help="Box-Jenkins "
+                                              "orders (batch only).", rich_help_panel="Model")] = None,
+    dt: Annotated[Optional[float], typer.Option("--dt", metavar="SECONDS", help="Sample time of the "
+                                                "models (default 1).", rich_help_panel="Model")] = None,
+    method: Annotated[Optional[str], typer.Option(
+        "--method", "-m", metavar="rls|window|kalman|lms|nlms|batch",
+        help="Estimator (default rls; with a model option: the model's batch fit per device, "
+             "as adaptid fit).")] = None,
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1].")] = None,
     window: Annotated[Optional[int], typer.Option("--window", help="Window length M.")] = None,
     process_cov: Annotated[Optional[float], typer.Option("--process-cov", help="R1 (kalman).")] = None,
@@ -421,14 +442,17 @@ def fleet(
     multiple: Annotated[str, typer.Option("--multiple", metavar="bh|bonferroni|none",
                                           help="Control across devices: Benjamini-Hochberg FDR, "
                                           "Bonferroni (alpha/G) or none.")] = "bh",
-    nan: Annotated[str, typer.Option("--nan", metavar="skip|error")] = "error",
+    nan: Annotated[str, typer.Option("--nan", metavar="raise|skip", help="Rows with missing "
+                                     "values (Python's nan_policy; 'error' is the same as "
+                                     "raise).")] = "raise",
     scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Dask scheduler address, "
                                                      "or 'local' to start a LocalCluster "
                                                      "(default: in-process).")] = None,
     tracks: Annotated[Optional[Path], typer.Option("--tracks", help="Folder for per-sample "
                                                    "estimates (Parquet, partitioned by device).")] = None,
-    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Write the per-device "
-                                                   "table (.csv, .parquet or .json).")] = None,
+    output: Annotated[Optional[Path], typer.Option("--out", "--output", "-o", help="Write the "
+                                                   "per-device table (.csv, .parquet or .json); "
+                                                   "--output is the former spelling.")] = None,
     json: JsonOpt = False,
     quiet: QuietOpt = False,
     verbose: VerboseOpt = False,
@@ -438,19 +462,50 @@ def fleet(
     one row of results per device, with a change flag and the break date."""
     out = _output(ctx, quiet, verbose, debug, json)
     with _guard(out):
-        nan_policy = {"skip": "skip", "error": "raise"}.get(nan.strip().lower())
+        nan_policy = {"skip": "skip", "error": "raise", "raise": "raise"}.get(nan.strip().lower())
         if nan_policy is None:
-            raise CLIError(f"--nan must be 'skip' or 'error', got {nan!r}")
+            raise CLIError(f"--nan must be raise or skip (error: the same as raise), got {nan!r}")
+        from ._fleetmodel import check_fleet_method, fleet_structure
+        from ._problem import parse_orders
+
+        structure = fleet_structure(y, u, {
+            "arx": parse_orders(arx, "--arx", ("na", "nb", "nk")),
+            "fir": parse_orders(fir_, "--fir", ("nb", "nk")), "ar": parse_orders(ar, "--ar", ("na",)),
+            "arma": parse_orders(arma, "--arma", ("na", "nc")),
+            "armax": parse_orders(armax, "--armax", ("na", "nb", "nc", "nk")),
+            "oe": parse_orders(oe, "--oe", ("nb", "nf", "nk")),
+            "bj": parse_orders(bj, "--bj", ("nb", "nc", "nd", "nf", "nk"))}, dt)
+        method = None if method is None else method.strip().lower()
+        if structure is not None:
+            if phi is not None or model is not None:
+                raise CLIError(f"--{structure.kind} cannot be combined with "
+                               + ("--phi" if phi is not None else "--model"))
+            method = check_fleet_method(structure, method, {
+                "--forgetting": forgetting, "--window": window, "--process-cov": process_cov,
+                "--noise-var": noise_var, "--P0": p0, "--step": step, "--eps": eps,
+                "--tracks": tracks})
         from adaptid.estimators._factory import METHODS
 
-        if method.strip().lower() not in METHODS:
-            raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}")
+        method = method or "rls"
+        if method not in METHODS and not (method == "batch" and structure is not None):
+            raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}"
+                           " (batch: with a model option only)")
         from ._engine import check_gradient, check_ranges, parse_P0
         from ._fleet import check_outputs, fleet_command, summary_text, write_result
 
         p0 = parse_P0(p0)
         check_ranges(forgetting=forgetting, P0=p0, process_cov=process_cov, noise_var=noise_var)
-        check_gradient(method.strip().lower(), step, eps, p0)
+        if method != "batch":
+            check_gradient(method, step, eps, p0)
+        else:   # a batch model fit per device takes no estimator option
+            from ._engine import check_options
+
+            check_options("batch", (("--window", window), ("--forgetting", forgetting),
+                                    ("--process-cov", process_cov), ("--noise-var", noise_var),
+                                    ("--step", step), ("--eps", eps)))
+            if p0 is not None:
+                raise CLIError("--P0 does not apply to a batch model fit (no prior); add "
+                               "--method rls")
         tests = {t.lower(): t for t in ("supF", "re", "cusum", "cusum2", "a-priori")}
         if change_test.strip().lower() not in tests:
             raise CLIError(f"--change-test must be one of {', '.join(tests.values())}, "
@@ -459,7 +514,7 @@ def fleet(
             raise CLIError(f"--multiple must be bh, bonferroni or none, got {multiple!r}")
         check_outputs(data, output, tracks)
         result = fleet_command(data, group, y=y, phi=phi, model=model,
-                               method=method.strip().lower(), time=time, scheduler=scheduler,
+                               method=method, time=time, scheduler=scheduler, structure=structure,
                                tracks=None if tracks is None else str(tracks),
                                forgetting=forgetting, window=window, process_cov=process_cov,
                                noise_var=noise_var, P0=p0, step=step, eps=eps, alpha=alpha,
@@ -470,8 +525,8 @@ def fleet(
         if output is not None:
             write_result(result, output)
         if out.json:
-            out.emit_json({"n_devices": int(len(result)),
-                           "n_flagged": int(result["change"].sum()),
+            out.emit_json({"n_devices": int(len(result)), "method": method,
+                           "n_flagged": int(result["change"].sum()) if "change" in result else None,
                            "devices": result.reset_index().to_dict(orient="records")})
         elif out.chatty:
             out.print(summary_text(result))
