@@ -273,7 +273,8 @@ def fit(
                                             rich_help_panel="Model")] = False,
     detrend: Annotated[Optional[str], typer.Option("--detrend", metavar="constant|linear",
                                                    help="Remove each signal's mean or straight "
-                                                   "line first (adaptid.IDData.detrend).",
+                                                   "line first (adaptid.IDData.detrend); with "
+                                                   "--validate, each part on its own.",
                                                    rich_help_panel="Workflow")] = None,
     validate: Annotated[Optional[float], typer.Option("--validate", metavar="FRACTION",
                                                       help="Estimate on the first FRACTION of the "
@@ -465,47 +466,22 @@ def fleet(
         nan_policy = {"skip": "skip", "error": "raise", "raise": "raise"}.get(nan.strip().lower())
         if nan_policy is None:
             raise CLIError(f"--nan must be raise or skip (error: the same as raise), got {nan!r}")
-        from ._fleetmodel import check_fleet_method, fleet_structure
-        from ._problem import parse_orders
-
-        structure = fleet_structure(y, u, {
-            "arx": parse_orders(arx, "--arx", ("na", "nb", "nk")),
-            "fir": parse_orders(fir_, "--fir", ("nb", "nk")), "ar": parse_orders(ar, "--ar", ("na",)),
-            "arma": parse_orders(arma, "--arma", ("na", "nc")),
-            "armax": parse_orders(armax, "--armax", ("na", "nb", "nc", "nk")),
-            "oe": parse_orders(oe, "--oe", ("nb", "nf", "nk")),
-            "bj": parse_orders(bj, "--bj", ("nb", "nc", "nd", "nf", "nk"))}, dt)
-        method = None if method is None else method.strip().lower()
-        if structure is not None:
-            if phi is not None or model is not None:
-                raise CLIError(f"--{structure.kind} cannot be combined with "
-                               + ("--phi" if phi is not None else "--model"))
-            method = check_fleet_method(structure, method, {
-                "--forgetting": forgetting, "--window": window, "--process-cov": process_cov,
-                "--noise-var": noise_var, "--P0": p0, "--step": step, "--eps": eps,
-                "--tracks": tracks})
-        from adaptid.estimators._factory import METHODS
-
-        method = method or "rls"
-        if method not in METHODS and not (method == "batch" and structure is not None):
-            raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}"
-                           " (batch: with a model option only)")
         from ._engine import check_gradient, check_ranges, parse_P0
-        from ._fleet import check_outputs, fleet_command, summary_text, write_result
+        from ._fleetmodel import fleet_method
 
         p0 = parse_P0(p0)
+        structure, method = fleet_method(
+            y=y, u=u, phi=phi, model=model, dt=dt, method=method,
+            orders={"arx": arx, "fir": fir_, "ar": ar, "arma": arma, "armax": armax, "oe": oe,
+                    "bj": bj},
+            given={"--forgetting": forgetting, "--window": window, "--process-cov": process_cov,
+                   "--noise-var": noise_var, "--P0": p0, "--step": step, "--eps": eps,
+                   "--tracks": tracks})
+        from ._fleet import check_outputs, fleet_command, summary_text, write_result
+
         check_ranges(forgetting=forgetting, P0=p0, process_cov=process_cov, noise_var=noise_var)
         if method != "batch":
             check_gradient(method, step, eps, p0)
-        else:   # a batch model fit per device takes no estimator option
-            from ._engine import check_options
-
-            check_options("batch", (("--window", window), ("--forgetting", forgetting),
-                                    ("--process-cov", process_cov), ("--noise-var", noise_var),
-                                    ("--step", step), ("--eps", eps)))
-            if p0 is not None:
-                raise CLIError("--P0 does not apply to a batch model fit (no prior); add "
-                               "--method rls")
         tests = {t.lower(): t for t in ("supF", "re", "cusum", "cusum2", "a-priori")}
         if change_test.strip().lower() not in tests:
             raise CLIError(f"--change-test must be one of {', '.join(tests.values())}, "

@@ -110,7 +110,7 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     if spec.method is None:
         from ._modelfit import default_method
 
-        spec.default = default_method(structure, spec, {
+        spec.default = default_method(structure, {
             "--forgetting": spec.forgetting, "--window": spec.window,
             "--process-cov": spec.process_cov, "--noise-var": spec.noise_var, "--P0": spec.P0,
             "--step": spec.step, "--eps": spec.eps, "--tracks": tracks, "--export-c": export_c,

@@ -19,7 +19,7 @@ import numpy as np
 from ._errors import CLIError
 from ._problem import PSEUDO_LINEAR, Structure, model_names, polynomial_form
 
-__all__ = ["ModelRegressors", "fleet_structure", "fit_devices"]
+__all__ = ["ModelRegressors", "fleet_structure", "fleet_method", "fit_devices"]
 
 
 def fleet_structure(y, u, orders: dict, dt) -> Structure | None:
@@ -132,7 +132,7 @@ def check_fleet_method(s: Structure, method: str | None, given: dict) -> str:
     if method is None:
         from ._modelfit import default_method
 
-        method = default_method(s, None, given)
+        method = default_method(s, given)
     if method == "batch":
         if given.get("--tracks") is not None:
             raise CLIError("--tracks needs a recursive --method (rls, window, kalman, lms, nlms): "
@@ -142,3 +142,35 @@ def check_fleet_method(s: Structure, method: str | None, given: dict) -> str:
         raise CLIError(f"--method {method} is not available with fleet --{s.kind}: its regressors "
                        "are filtered with the running estimate; fit it in batch (no --method)")
     return method
+
+
+def fleet_method(*, y, u, phi, model, dt, method, orders: dict, given: dict):
+    """``fleet``'s model option (a Structure or None) and its method, checked.
+
+    ``orders``: the text of each model option (``--arx`` …), ``given``: the
+    estimator options and ``--tracks`` (flag -> value). A batch fit takes no
+    estimator option; ``--method batch`` needs a model option.
+    """
+    from adaptid.estimators._factory import METHODS
+
+    from ._engine import check_options
+    from ._problem import ORDER_LABELS, parse_orders
+
+    structure = fleet_structure(y, u, {k: parse_orders(v, f"--{k}", ORDER_LABELS[k])
+                                       for k, v in orders.items()}, dt)
+    method = None if method is None else method.strip().lower()
+    if structure is not None:
+        if phi is not None or model is not None:
+            raise CLIError(f"--{structure.kind} cannot be combined with "
+                           + ("--phi" if phi is not None else "--model"))
+        method = check_fleet_method(structure, method, given)
+    method = method or "rls"
+    if method not in METHODS and not (method == "batch" and structure is not None):
+        raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}"
+                       " (batch: with a model option only)")
+    if method == "batch":   # a batch model fit per device takes no estimator option
+        check_options("batch", tuple((f, given.get(f)) for f in (
+            "--window", "--forgetting", "--process-cov", "--noise-var", "--step", "--eps")))
+        if given.get("--P0") is not None:
+            raise CLIError("--P0 does not apply to a batch model fit (no prior); add --method rls")
+    return structure, method

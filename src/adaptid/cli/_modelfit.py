@@ -45,7 +45,7 @@ RECURSIVE_FLAGS = ("--forgetting", "--window", "--process-cov", "--noise-var", "
                    "--eps", "--tracks", "--export-c", "--save-state", "--resume")
 
 
-def default_method(structure, spec, given) -> str:
+def default_method(structure, given) -> str:
     """The method when ``--method`` is not given.
 
     A model option (``--arx``, ``--armax``, ``--oe``, ``--bj``, ``--ar``,
