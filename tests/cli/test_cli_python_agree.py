@@ -166,6 +166,18 @@ def test_recursive_oe_equals_fit_recursive(dryer):
     np.testing.assert_allclose(out["stderr"], m.stderr, rtol=1e-8)
 
 
+def test_recursive_armax_equals_fit_recursive(dryer):
+    path, _, u, y = dryer
+    out = run_json("fit", path, "--y", "temp", "--u", "pump", "--armax", "2,2,1,3", "--method",
+                   "rls", "--forgetting", "0.999", "--detrend", "constant")
+    m = models.ARMAX(2, 2, 1, 3)
+    m.fit_recursive(IDData(y, u).detrend("constant"),
+                    estimator=adaptid.RLS(5, forgetting=0.999))
+    assert out["names"] == list(m.names) == ["a1", "a2", "b0", "b1", "c1"]
+    np.testing.assert_allclose(out["theta"], m.theta, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(out["stderr"], m.stderr, rtol=1e-8)
+
+
 def test_recursive_option_without_method_selects_rls(dryer):
     path, _, u, y = dryer
     out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--P0", "100")
@@ -276,6 +288,18 @@ def test_fleet_arx_batch_per_device_equals_python(fleet_csv, tmp_path):
         np.testing.assert_allclose([dev[n] for n in m.names], m.theta, rtol=1e-9)
         np.testing.assert_allclose([dev[f"stderr_{n}"] for n in m.names], m.stderr, rtol=1e-9)
         np.testing.assert_allclose(back.loc[dev["device"], list(m.names)], m.theta, rtol=1e-12)
+
+
+def test_fleet_oe_batch_equals_python(fleet_csv):
+    path, df = fleet_csv
+    out = run_json("fleet", path, "-g", "device", "--y", "y", "--u", "u", "--oe", "1,1,1",
+                   "--time", "k")
+    assert out["method"] == "batch" and out["n_flagged"] is None
+    for dev in out["devices"]:
+        part = df[df.device == dev["device"]].sort_values("k")
+        m = models.OE(1, 1, 1).fit(IDData(part.y.to_numpy(), part.u.to_numpy()))
+        np.testing.assert_allclose([dev[n] for n in m.names], m.theta, rtol=1e-8)
+        assert dev["sigma2"] == pytest.approx(m.noise_variance, rel=1e-8)
 
 
 def test_fleet_arx_recursive_equals_fit_recursive(fleet_csv):
