@@ -179,7 +179,7 @@ def test_fit_arx_batch_against_numpy(rng, tmp_path):
     # issue 13 point 4 changed the convention: the CLI reports A(q) = 1 + a1 q^-1 + a2 q^-2
     # (models.ARX's), so a_j is minus the coefficient of y[k-j] fitted by numpy here
     np.testing.assert_allclose(out["theta"], [-th[0], -th[1], th[2], th[3]], rtol=1e-9)
-    assert out["names"] == ["a1", "a2", "b_u[0]", "b_u[1]"]
+    assert out["names"] == ["a1", "a2", "b0", "b1"]  # the model objects' names (issue 33)
 
 
 @pytest.mark.parametrize("method", [["--method", "rls", "--forgetting", "0.99"],

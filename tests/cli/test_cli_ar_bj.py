@@ -159,7 +159,7 @@ def test_bj_batch_equals_models_bj(bj_record):
     path, u, y = bj_record
     out = run_json("fit", path, "--y", "temp", "--u", "heater", "--bj", "2,1,1,1,2",
                    "--method", "batch")
-    assert out["names"] == ["b_heater[0]", "b_heater[1]", "c1", "d1", "f_heater[1]"]
+    assert out["names"] == ["b0", "b1", "c1", "d1", "f1"]  # BJ's names (issue 33)
     m = models.BJ(2, 1, 1, 1, 2).fit(y, u)
     assert list(m.names) == ["b0", "b1", "c1", "d1", "f1"]
     np.testing.assert_allclose(out["theta"], m.theta, rtol=1e-8)

@@ -95,12 +95,12 @@ def test_fleet_output_over_the_input_refused(tmp_path):
     df.to_parquet(inp)
     before = inp.read_bytes()
     res = invoke("fleet", inp, "--group", "device", "--y", "v", "--phi", "i,di_dt,omega,sign_i",
-                 "--output", inp)
-    one_line_error(res, "--output", "input")
+                 "--output", inp)   # the former spelling of --out (issue 33: one -o/--out)
+    one_line_error(res, "--out", "input")
     assert inp.read_bytes() == before
     res = invoke("fleet", inp, "--group", "device", "--y", "v", "--phi", "i,di_dt,omega,sign_i",
-                 "--output", tmp_path / "out.xlsx")
-    one_line_error(res, "--output", ".csv")
+                 "--out", tmp_path / "out.xlsx")
+    one_line_error(res, "--out", ".csv")
     assert not (tmp_path / "out.xlsx").exists()
 
 

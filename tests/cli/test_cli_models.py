@@ -34,7 +34,7 @@ def test_dryer_arx_batch_equals_models_arx(dryer_csv):
     path, u, y = dryer_csv
     out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--method", "batch")
     m = models.ARX(2, 2, 3).fit(y, u)
-    assert out["names"] == ["a1", "a2", "b_pump[0]", "b_pump[1]"]
+    assert out["names"] == ["a1", "a2", "b0", "b1"]  # ARX's names (issue 33)
     assert list(m.names) == ["a1", "a2", "b0", "b1"]        # the same coefficients, in order
     # the same QR least squares on the same rows: rounding only
     np.testing.assert_allclose(out["theta"], m.theta, rtol=1e-12)
@@ -74,7 +74,7 @@ def test_two_inputs_named_by_column(rng, tmp_path):
     path = tmp_path / "two.csv"
     pd.DataFrame({"u1": u1, "u2": u2, "y": y}).to_csv(path, index=False, float_format="%.17g")
     out = run_json("fit", path, "--y", "y", "--u", "u1,u2", "--arx", "1,2,1", "--method", "batch")
-    assert out["names"] == ["a1", "b_u1[0]", "b_u1[1]", "b_u2[0]", "b_u2[1]"]
+    assert out["names"] == ["a1", "b0_0", "b0_1", "b1_0", "b1_1"]  # ARX's (issue 33)
     m = models.ARX(1, 2, 1).fit(y, np.column_stack([u1, u2]))
     assert list(m.names) == ["a1", "b0_0", "b0_1", "b1_0", "b1_1"]
     np.testing.assert_allclose(out["theta"], m.theta, rtol=1e-10)
@@ -89,5 +89,5 @@ def test_fir_names(rng, tmp_path):
     path = tmp_path / "fir.csv"
     pd.DataFrame({"valve": u, "flow": y}).to_csv(path, index=False, float_format="%.17g")
     out = run_json("fit", path, "--y", "flow", "--u", "valve", "--fir", "2,2", "--method", "batch")
-    assert out["names"] == ["b_valve[0]", "b_valve[1]"]
+    assert out["names"] == ["b0", "b1"]  # ARX(0, nb, nk)'s names (issue 33)
     np.testing.assert_allclose(out["theta"], [2.0, -1.0], atol=1e-12)  # noise-free: exact

@@ -86,7 +86,7 @@ def test_intercept_batch_and_recursive(dryer):
     ref = np.linalg.lstsq(Phi1, yy, rcond=None)[0]   # raw data: the intercept takes the offset
     out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--intercept",
                    "--method", "batch")
-    assert out["names"] == ["a1", "a2", "b_pump[0]", "b_pump[1]", "intercept"]
+    assert out["names"] == ["a1", "a2", "b0", "b1", "intercept"]
     np.testing.assert_allclose(out["theta"], ref, rtol=1e-9)
     # recursive: RLS over the same hand-built regressors (the estimator is tested elsewhere
     # against batch solves); the same compiled recursion on the same numbers: rounding only
@@ -110,8 +110,9 @@ def test_validate_batch_equals_compare_resid_and_oracles(dryer):
     out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--method", "batch",
                    "--detrend", "constant", "--validate", "0.5")
     v = out["validation"]
-    data = IDData(y, u, y_names="temp", u_names="pump").detrend("constant")
-    est, val = data.split(0.5)
+    # each part detrended on its own (MATLAB practice; issue 33 changed the whole-record detrend)
+    est, val = IDData(y, u, y_names="temp", u_names="pump").split(0.5)
+    est, val = est.detrend("constant"), val.detrend("constant")
     assert v["n_samples"] == len(val) == 500 and v["fraction"] == 0.5
     m = models.ARX(2, 2, 3).fit(est)
     np.testing.assert_allclose(out["theta"], m.theta, rtol=1e-12)
@@ -138,8 +139,8 @@ def test_validate_recursive_uses_the_printed_estimate(dryer):
     path, u, y, _ = dryer
     out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--forgetting",
                    "0.99", "--detrend", "linear", "--validate", "0.7")
-    data = IDData(y, u).detrend("linear")
-    est, val = data.split(0.7)
+    est, val = IDData(y, u).split(0.7)   # each part detrended on its own (issue 33)
+    est, val = est.detrend("linear"), val.detrend("linear")
     m = models.ARX(2, 2, 3)
     m.fit_recursive(est, estimator=adaptid.RLS(4, forgetting=0.99))
     np.testing.assert_allclose(out["theta"], m.theta, rtol=1e-9)
@@ -169,14 +170,14 @@ def test_tracks_file_read_back(dryer, tmp_path, ext):
                    "--tracks", tracks)
     assert out["tracks"] == str(tracks)
     df = pd.read_csv(tracks) if ext == "csv" else pd.read_parquet(tracks)
-    assert list(df.columns) == ["sample", "time", "a1", "a2", "b_pump[0]", "b_pump[1]", "error"]
+    assert list(df.columns) == ["sample", "time", "a1", "a2", "b0", "b1", "error"]
     m = models.ARX(2, 2, 3)
     traj = m.fit_recursive(y, u)
     np.testing.assert_array_equal(df["sample"], traj.meta["index"])
     # the stamps of those samples, exactly (as written in the data file)
     np.testing.assert_array_equal(pd.to_datetime(df["time"]).to_numpy("datetime64[ns]"),
                                   t[traj.meta["index"]])
-    np.testing.assert_allclose(df[["a1", "a2", "b_pump[0]", "b_pump[1]"]].to_numpy(), traj.theta,
+    np.testing.assert_allclose(df[["a1", "a2", "b0", "b1"]].to_numpy(), traj.theta,
                                rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(df.iloc[-1, 2:6], out["theta"], rtol=1e-15)
 
@@ -188,14 +189,14 @@ def test_summary_batch_equals_statsmodels_ols(dryer):
     path, u, y, _ = dryer
     r = run("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--method", "batch",
             "--summary", "--detrend", "constant")
-    assert r.exit_code == 0 and "P>|t|" in r.stdout and "b_pump[0]" in r.stdout
+    assert r.exit_code == 0 and "P>|t|" in r.stdout and "b0" in r.stdout
     out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--method", "batch",
                    "--summary", "--detrend", "constant")
     (s,) = out["summary"]
     Phi, yy, _ = arx_phi(signal.detrend(y, type="constant"), signal.detrend(u, type="constant"),
                          2, 2, 3)
     ols = sm.OLS(yy, Phi).fit()
-    names = ["a1", "a2", "b_pump[0]", "b_pump[1]"]
+    names = ["a1", "a2", "b0", "b1"]
     got = np.array([[s["params"][n][c] for c in ("estimate", "stderr", "t", "p")] for n in names])
     np.testing.assert_allclose(got[:, 0], ols.params, rtol=1e-9)
     np.testing.assert_allclose(got[:, 1], ols.bse, rtol=1e-9)
@@ -211,7 +212,7 @@ def test_summary_recursive_equals_recursive_summary(dryer):
     Phi, yy, _ = arx_phi(y, u, 2, 2, 3)
     est = adaptid.RLS(4, forgetting=0.995)
     est.run(Phi, yy)
-    ref = models.recursive_summary(est, Phi, yy, names=["a1", "a2", "b_pump[0]", "b_pump[1]"])
+    ref = models.recursive_summary(est, Phi, yy, names=["a1", "a2", "b0", "b1"])
     for n, row in zip(ref.names, ref.params):
         np.testing.assert_allclose([s["params"][n][c] for c in ("estimate", "stderr", "t")],
                                    row[:3], rtol=1e-8)
@@ -240,7 +241,8 @@ def test_report_has_compare_resid_and_date_axes(dryer, tmp_path, monkeypatch):
     figs = _capture_figures(monkeypatch)
     rep = tmp_path / "rep"
     out = run_json("fit", path, "--y", "temp", "--u", "pump", "--arx", "2,2,3", "--time", "time",
-                   "--detrend", "constant", "--validate", "0.6", "--out", rep)
+                   "--detrend", "constant", "--validate", "0.6", "--out", rep,
+                   "--method", "rls")   # a model option alone is a batch fit now (issue 33)
     for name in ("tracks.png", "errors.png", "cusum.png", "compare.png", "resid.png"):
         png = rep / name
         assert png.stat().st_size > 5000, name          # a drawn figure, not an empty canvas
@@ -283,7 +285,7 @@ def test_report_numeric_time_axis_label(tmp_path, monkeypatch, rng):
     pd.DataFrame({"seconds": 0.01 * np.arange(N), "valve": uu, "flow": yy}).to_csv(path, index=False)
     figs = _capture_figures(monkeypatch)
     assert run("fit", path, "--y", "flow", "--u", "valve", "--arx", "1,1,1", "--time", "seconds",
-               "--out", tmp_path / "r", "-q").exit_code == 0
+               "--out", tmp_path / "r", "-q", "--method", "rls").exit_code == 0
     ax = figs["compare.png"].axes[0]
     assert ax.get_ylabel() == "flow"
     assert figs["tracks.png"].axes[0].get_xlabel() == "seconds"

@@ -239,7 +239,8 @@ def fit(
     y: Annotated[Optional[str], typer.Option("--y", help="Output column.", rich_help_panel="Model")] = None,
     phi: Annotated[Optional[str], typer.Option("--phi", help="Regressor columns, comma separated.",
                                                rich_help_panel="Model")] = None,
-    u: Annotated[Optional[str], typer.Option("--u", help="Input column(s) for --arx / --fir.",
+    u: Annotated[Optional[str], typer.Option("--u", help="Input column(s) for --arx, --fir, "
+                                             "--armax, --oe, --bj.",
                                              rich_help_panel="Model")] = None,
     arx: Annotated[Optional[str], typer.Option("--arx", metavar="NA,NB,NK", help="ARX model orders.",
                                                rich_help_panel="Model")] = None,
@@ -255,12 +256,25 @@ def fit(
                                               "model y = B/F u + C/D e, the orders for every --u "
                                               "input (recursive: pseudo-linear regression).",
                                               rich_help_panel="Model")] = None,
+    armax: Annotated[Optional[str], typer.Option("--armax", metavar="NA,NB,NC,NK", help="ARMAX "
+                                                 "model A y = B u + C e, the orders for every --u "
+                                                 "input (recursive: extended least squares).",
+                                                 rich_help_panel="Model")] = None,
+    oe: Annotated[Optional[str], typer.Option("--oe", metavar="NB,NF,NK", help="Output-error model "
+                                              "y = B/F u + e, the orders for every --u input "
+                                              "(recursive: pseudo-linear regression).",
+                                              rich_help_panel="Model")] = None,
+    dt: Annotated[Optional[float], typer.Option("--dt", metavar="SECONDS", help="Sample time of "
+                                                "the model (default: the step of the --time "
+                                                "column, else 1; must agree with it).",
+                                                rich_help_panel="Model")] = None,
     intercept: Annotated[bool, typer.Option("--intercept", help="--arx/--fir: add a constant "
                                             "parameter (regressor 1), named 'intercept'.",
                                             rich_help_panel="Model")] = False,
     detrend: Annotated[Optional[str], typer.Option("--detrend", metavar="constant|linear",
                                                    help="Remove each signal's mean or straight "
-                                                   "line first (adaptid.IDData.detrend).",
+                                                   "line first (adaptid.IDData.detrend); with "
+                                                   "--validate, each part on its own.",
                                                    rich_help_panel="Workflow")] = None,
     validate: Annotated[Optional[float], typer.Option("--validate", metavar="FRACTION",
                                                       help="Estimate on the first FRACTION of the "
@@ -301,7 +315,12 @@ def fit(
                                                       rich_help_panel="Model")] = None,
     method: Annotated[Optional[str], typer.Option("--method", "-m",
                                                   metavar="rls|window|kalman|lms|nlms|batch",
-                                                  help="Estimator (default rls).",
+                                                  help="Estimator. Default: a model option "
+                                                  "(--arx, --armax, --oe, --bj, --ar, --arma, "
+                                                  "--fir) runs the model's batch fit, unless a "
+                                                  "recursive option (--forgetting, --window, "
+                                                  "--P0, --tracks, --export-c, --save-state, …) "
+                                                  "is given; otherwise rls.",
                                                   rich_help_panel="Method")] = None,
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1] (rls, window).",
                                                         rich_help_panel="Method")] = None,
@@ -321,9 +340,11 @@ def fit(
                                                   rich_help_panel="Method")] = None,
     eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε ≥ 0 (nlms; "
                                                  "default 2.2e-16).", rich_help_panel="Method")] = None,
-    nan: Annotated[str, typer.Option("--nan", metavar="skip|error", help="Rows with missing values: "
-                                     "skip them (counted) or stop with an error.")] = "error",
-    out_dir: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write a report folder.")] = None,
+    nan: Annotated[str, typer.Option("--nan", metavar="raise|skip", help="Rows with missing values "
+                                     "(Python's nan_policy): stop with an error (raise; 'error' "
+                                     "is accepted as the same) or skip them (counted).")] = "raise",
+    out_dir: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for the HTML "
+                                                    "report (index.html and its figures).")] = None,
     save_state: Annotated[Optional[Path], typer.Option("--save-state", help="Save the estimator's "
                                                        "state after the run.")] = None,
     resume: Annotated[Optional[Path], typer.Option("--resume", help="Continue from a saved state.")] = None,
@@ -349,7 +370,9 @@ def fit(
             arx=parse_orders(arx, "--arx", ("na", "nb", "nk")),
             fir=parse_orders(fir_, "--fir", ("nb", "nk")),
             ar=parse_orders(ar, "--ar", ("na",)), arma=parse_orders(arma, "--arma", ("na", "nc")),
-            bj=parse_orders(bj, "--bj", ("nb", "nc", "nd", "nf", "nk")), dc_motor=dc_motor,
+            bj=parse_orders(bj, "--bj", ("nb", "nc", "nd", "nf", "nk")),
+            armax=parse_orders(armax, "--armax", ("na", "nb", "nc", "nk")),
+            oe=parse_orders(oe, "--oe", ("nb", "nf", "nk")), dt=dt, dc_motor=dc_motor,
             time=time, voltage=voltage, current=current, speed=speed, cutoff=cutoff,
             speed_kind=None if speed_kind is None else speed_kind.strip().lower(),
             intercept=intercept, detrend=None if detrend is None else detrend.strip().lower(),
@@ -379,7 +402,28 @@ def fleet(
                                                  "Regression (instead of --y/--phi).")] = None,
     time: Annotated[Optional[str], typer.Option("--time", help="Ordering column (rows sorted by it "
                                                 "within each device; default: stored order).")] = None,
-    method: Annotated[str, typer.Option("--method", "-m", metavar="rls|window|kalman|lms|nlms")] = "rls",
+    u: Annotated[Optional[str], typer.Option("--u", help="Input column(s) of a model option.",
+                                             rich_help_panel="Model")] = None,
+    arx: Annotated[Optional[str], typer.Option("--arx", metavar="NA,NB,NK", help="ARX model orders "
+                                               "(as adaptid fit).", rich_help_panel="Model")] = None,
+    fir_: Annotated[Optional[str], typer.Option("--fir", metavar="NB,NK", help="FIR model orders.",
+                                                rich_help_panel="Model")] = None,
+    ar: Annotated[Optional[str], typer.Option("--ar", metavar="NA", help="AR model order.",
+                                              rich_help_panel="Model")] = None,
+    arma: Annotated[Optional[str], typer.Option("--arma", metavar="NA,NC", help="ARMA orders "
+                                                "(batch only).", rich_help_panel="Model")] = None,
+    armax: Annotated[Optional[str], typer.Option("--armax", metavar="NA,NB,NC,NK", help="ARMAX "
+                                                 "orders (batch only).", rich_help_panel="Model")] = None,
+    oe: Annotated[Optional[str], typer.Option("--oe", metavar="NB,NF,NK", help="Output-error orders "
+                                              "(batch only).", rich_help_panel="Model")] = None,
+    bj: Annotated[Optional[str], typer.Option("--bj", metavar="NB,NC,ND,NF,NK", help="Box-Jenkins "
+                                              "orders (batch only).", rich_help_panel="Model")] = None,
+    dt: Annotated[Optional[float], typer.Option("--dt", metavar="SECONDS", help="Sample time of the "
+                                                "models (default 1).", rich_help_panel="Model")] = None,
+    method: Annotated[Optional[str], typer.Option(
+        "--method", "-m", metavar="rls|window|kalman|lms|nlms|batch",
+        help="Estimator (default rls; with a model option: the model's batch fit per device, "
+             "as adaptid fit).")] = None,
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1].")] = None,
     window: Annotated[Optional[int], typer.Option("--window", help="Window length M.")] = None,
     process_cov: Annotated[Optional[float], typer.Option("--process-cov", help="R1 (kalman).")] = None,
@@ -399,14 +443,17 @@ def fleet(
     multiple: Annotated[str, typer.Option("--multiple", metavar="bh|bonferroni|none",
                                           help="Control across devices: Benjamini-Hochberg FDR, "
                                           "Bonferroni (alpha/G) or none.")] = "bh",
-    nan: Annotated[str, typer.Option("--nan", metavar="skip|error")] = "error",
+    nan: Annotated[str, typer.Option("--nan", metavar="raise|skip", help="Rows with missing "
+                                     "values (Python's nan_policy; 'error' is the same as "
+                                     "raise).")] = "raise",
     scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Dask scheduler address, "
                                                      "or 'local' to start a LocalCluster "
                                                      "(default: in-process).")] = None,
     tracks: Annotated[Optional[Path], typer.Option("--tracks", help="Folder for per-sample "
                                                    "estimates (Parquet, partitioned by device).")] = None,
-    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Write the per-device "
-                                                   "table (.csv, .parquet or .json).")] = None,
+    output: Annotated[Optional[Path], typer.Option("--out", "--output", "-o", help="Write the "
+                                                   "per-device table (.csv, .parquet or .json); "
+                                                   "--output is the former spelling.")] = None,
     json: JsonOpt = False,
     quiet: QuietOpt = False,
     verbose: VerboseOpt = False,
@@ -416,19 +463,25 @@ def fleet(
     one row of results per device, with a change flag and the break date."""
     out = _output(ctx, quiet, verbose, debug, json)
     with _guard(out):
-        nan_policy = {"skip": "skip", "error": "raise"}.get(nan.strip().lower())
+        nan_policy = {"skip": "skip", "error": "raise", "raise": "raise"}.get(nan.strip().lower())
         if nan_policy is None:
-            raise CLIError(f"--nan must be 'skip' or 'error', got {nan!r}")
-        from adaptid.estimators._factory import METHODS
-
-        if method.strip().lower() not in METHODS:
-            raise CLIError(f"--method must be one of {', '.join(METHODS)} for fleet, got {method!r}")
+            raise CLIError(f"--nan must be raise or skip (error: the same as raise), got {nan!r}")
         from ._engine import check_gradient, check_ranges, parse_P0
-        from ._fleet import check_outputs, fleet_command, summary_text, write_result
+        from ._fleetmodel import fleet_method
 
         p0 = parse_P0(p0)
+        structure, method = fleet_method(
+            y=y, u=u, phi=phi, model=model, dt=dt, method=method,
+            orders={"arx": arx, "fir": fir_, "ar": ar, "arma": arma, "armax": armax, "oe": oe,
+                    "bj": bj},
+            given={"--forgetting": forgetting, "--window": window, "--process-cov": process_cov,
+                   "--noise-var": noise_var, "--P0": p0, "--step": step, "--eps": eps,
+                   "--tracks": tracks})
+        from ._fleet import check_outputs, fleet_command, summary_text, write_result
+
         check_ranges(forgetting=forgetting, P0=p0, process_cov=process_cov, noise_var=noise_var)
-        check_gradient(method.strip().lower(), step, eps, p0)
+        if method != "batch":
+            check_gradient(method, step, eps, p0)
         tests = {t.lower(): t for t in ("supF", "re", "cusum", "cusum2", "a-priori")}
         if change_test.strip().lower() not in tests:
             raise CLIError(f"--change-test must be one of {', '.join(tests.values())}, "
@@ -437,7 +490,7 @@ def fleet(
             raise CLIError(f"--multiple must be bh, bonferroni or none, got {multiple!r}")
         check_outputs(data, output, tracks)
         result = fleet_command(data, group, y=y, phi=phi, model=model,
-                               method=method.strip().lower(), time=time, scheduler=scheduler,
+                               method=method, time=time, scheduler=scheduler, structure=structure,
                                tracks=None if tracks is None else str(tracks),
                                forgetting=forgetting, window=window, process_cov=process_cov,
                                noise_var=noise_var, P0=p0, step=step, eps=eps, alpha=alpha,
@@ -448,8 +501,8 @@ def fleet(
         if output is not None:
             write_result(result, output)
         if out.json:
-            out.emit_json({"n_devices": int(len(result)),
-                           "n_flagged": int(result["change"].sum()),
+            out.emit_json({"n_devices": int(len(result)), "method": method,
+                           "n_flagged": int(result["change"].sum()) if "change" in result else None,
                            "devices": result.reset_index().to_dict(orient="records")})
         elif out.chatty:
             out.print(summary_text(result))

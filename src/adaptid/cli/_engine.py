@@ -64,10 +64,11 @@ class MethodSpec:
     P0: float | str | None = None  # a float, or "diffuse"
     step: float | None = None   # lms, nlms
     eps: float | None = None    # nlms
+    default: str = "rls"        # without --method ("batch" for a model option: see _modelfit)
 
     @property
     def resolved(self) -> str:
-        return self.method or "rls"
+        return self.method or self.default
 
     def check(self, *, resume=None, save_state=None):
         """Raise CLIError for an inconsistent combination of options."""

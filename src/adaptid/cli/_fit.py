@@ -13,12 +13,14 @@ from ._engine import MethodSpec, fit_equation
 from ._errors import CLIError
 from ..io import read_table
 from ._output import Output
-from ._problem import Problem, Structure, build_problem
+from ._problem import PSEUDO_LINEAR, Problem, Structure, build_problem, detrend_offsets
 from ._targets import c_targets, check_targets, report_targets, state_lock
 
 __all__ = ["run_fit"]
 
 N_CHUNKS = 200
+#: --nan: the words of Python's ``nan_policy``; "error" is kept as an alias of "raise"
+NAN_WORDS = {"raise": "raise", "skip": "skip", "error": "raise"}
 
 
 def _load_resume(path):
@@ -58,7 +60,7 @@ def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume,
                   export_c, c_name):
     """Combinations of the workflow options (--tracks, --export-c, --arma/--bj) that cannot work."""
     kind = structure.kind
-    if kind in ("arma", "bj") and (save_state is not None or resume is not None):
+    if kind in PSEUDO_LINEAR and (save_state is not None or resume is not None):
         raise CLIError(f"--save-state/--resume are not available with --{kind}: its recursion "
                        "(pseudo-linear regression on filtered signals) has more state than an "
                        "estimator's")
@@ -69,7 +71,7 @@ def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume,
         if spec.resolved == "batch" and resume is None:
             raise CLIError("--export-c needs a recursive method (rls, window, kalman, lms, nlms): --method "
                            "batch has no estimator to continue in C")
-        if kind in ("arma", "bj"):
+        if kind in PSEUDO_LINEAR:
             raise CLIError(f"--export-c is not available with --{kind}: its recursion filters the "
                            "regressors with the running estimate (pseudo-linear regression), not "
                            "a plain estimator run; export an --arx, --fir, --ar or --phi fit")
@@ -107,9 +109,17 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     """The whole ``fit`` command; returns the JSON-ready result."""
     t0 = _time.perf_counter()
     structure.check()
+    if nan not in NAN_WORDS:
+        raise CLIError(f"--nan must be raise or skip (error: the same as raise), got {nan!r}")
+    if spec.method is None:
+        from ._modelfit import default_method
+
+        spec.default = default_method(structure, {
+            "--forgetting": spec.forgetting, "--window": spec.window,
+            "--process-cov": spec.process_cov, "--noise-var": spec.noise_var, "--P0": spec.P0,
+            "--step": spec.step, "--eps": spec.eps, "--tracks": tracks, "--export-c": export_c,
+            "--save-state": save_state, "--resume": resume})
     spec.check(resume=resume, save_state=save_state)
-    if nan not in ("skip", "error"):
-        raise CLIError(f"--nan must be skip or error, got {nan!r}")
     if structure.kind == "dc-motor" and (save_state is not None or resume is not None):
         raise CLIError("--save-state/--resume are not available with --dc-motor (two estimators "
                        "and filtered derivatives); use --y/--phi with the regressor columns")
@@ -134,23 +144,27 @@ def _run_fit_locked(data, structure, spec, *, nan, out, save_state, resume, outp
 
     table = read_table(data, columns=structure.columns())
     output.detail(f"read {table.path} ({table.kind}): columns {', '.join(table.names[:20])}")
-    problem = build_problem(table, structure, nan)
-    policy = "skip" if nan == "skip" else "raise"
+    policy = NAN_WORDS[nan]
+    problem = build_problem(table, structure, policy)
     if est0 is not None:
         n = problem.equations[0][2].shape[1]
         est0 = spec.adopt(est0, n, policy, resume)
         _check_labels(labels, _labels(structure, problem), resume)
     _check_sample_counts(table, problem, spec, est0=est0, save_state=save_state, output=output)
-    want_cusum = out is not None and problem.kind not in ("arma", "bj")
+    want_cusum = out is not None and problem.kind not in PSEUDO_LINEAR
     total = sum(len(eq[3]) for eq in problem.equations)
     fits, fitted_models = [], {}
+    from ._modelfit import fit_model_equation, uses_model
+
     with output.progress(total, f"fitting ({spec.resolved})") as advance:
         for title, names, Phi, y, index in problem.equations:
-            if Phi is None:  # --arma / --bj: the models' fit / fit_recursive
-                from ._modelfit import fit_model_equation
-
+            if uses_model(problem, structure, spec):  # the model object's fit / fit_recursive
                 f, model = fit_model_equation(problem, structure, spec, nan_policy=policy,
                                               advance=advance)
+                if want_cusum and Phi is not None:
+                    from ._engine import _cusum
+
+                    f.cusum = _cusum(Phi, y)
                 fitted_models[f.title] = model
                 fits.append(f)
                 continue
@@ -166,9 +180,12 @@ def _run_fit_locked(data, structure, spec, *, nan, out, save_state, resume, outp
 
         physical = physical_estimates(problem.regs, fits[0], fits[1])
 
-    result = _result(table, problem, fits, spec, physical, nan)
+    result = _result(table, problem, fits, spec, physical, policy)
+    if problem.data is not None:
+        result["dt"], result["dt_source"] = float(problem.data.dt), problem.dt_source
     if structure.detrend is not None:
         result["detrend"] = structure.detrend
+        result["detrend_offsets"] = detrend_offsets(problem)
     checks = _workflow(problem, structure, fits, fitted_models, want_figures=out is not None)
     if checks.get("validation") is not None:
         result["validation"] = checks["validation"]

@@ -52,7 +52,7 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
                   scheduler=None, tracks=None, *, forgetting=None, window=None,
                   process_cov=None, noise_var=None, P0=None, step=None, eps=None, alpha=0.05,
                   nan_policy="raise", change_test="supF", multiple="bh", npartitions=None,
-                  quiet=False):
+                  quiet=False, structure=None):
     """Run :func:`adaptid.fleet.identify` for the command line.
 
     Parameters
@@ -77,6 +77,10 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
         As in :func:`adaptid.fleet.identify`.
     quiet : bool
         No progress bar.
+    structure : adaptid.cli._problem.Structure, optional
+        A model option (``--arx``, ``--oe``, …; see :mod:`adaptid.cli._fleetmodel`):
+        ``method="batch"`` fits the model object per device, a recursive
+        method runs :func:`adaptid.fleet.identify` on the model's regressors.
 
     Returns
     -------
@@ -88,6 +92,16 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
                                      process_cov=process_cov, noise_var=noise_var,
                                      P0=P0, step=step, eps=eps).items() if v is not None}
     source = read_frame(data) if is_single_file(data) else data
+    if structure is not None:
+        from ._fleetmodel import ModelRegressors, fit_devices
+
+        if method == "batch":
+            if not is_single_file(data):
+                import dask.dataframe as dd
+
+                source = dd.read_parquet(data).compute()
+            return fit_devices(source, group, structure, time=time)
+        model, y = ModelRegressors(structure.kind, structure.orders, structure.y, structure.u), None
     return identify(source, group=group, y=y, phi=_split_names(phi),
                     model=resolve_model(model), method=method, time=time,
                     client=scheduler or None, tracks=tracks, nan_policy=nan_policy,
@@ -99,11 +113,13 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
 def summary_text(result, *, max_rows=10) -> str:
     """A short human-readable summary: counts, flagged devices, parameter spread."""
     n = len(result)
-    flagged = result.index[result["change"].to_numpy(dtype=bool)]
+    flagged = result.index[result["change"].to_numpy(dtype=bool)] if "change" in result \
+        else result.index[:0]   # a batch model fit per device: no change test
     theta_cols = [c for c in result.columns
                   if f"stderr_{c}" in result.columns]
-    lines = [f"{n} devices identified, {len(flagged)} with a change flag, "
-             f"{int(result['n_skipped'].sum())} samples skipped"]
+    lines = [f"{n} devices identified, "
+             + (f"{len(flagged)} with a change flag, " if "change" in result else "")
+             + f"{int(result['n_skipped'].sum())} samples skipped"]
     if theta_cols:
         desc = result[theta_cols].describe().loc[["mean", "std", "min", "max"]]
         lines.append(desc.to_string(float_format=lambda v: f"{v:.6g}"))
@@ -140,13 +156,13 @@ def check_outputs(data, output=None, tracks=None) -> None:
     from ._errors import CLIError
     inputs = input_files(data)
     if output is not None:
-        check_writable(output, what="--output")
+        check_writable(output, what="--out")
         low = os.fspath(output).lower()
         if not low.endswith((".csv", ".parquet", ".pq", ".json")):
-            raise CLIError(f"--output {output}: the name must end in .csv, .parquet or .json")
+            raise CLIError(f"--out {output}: the name must end in .csv, .parquet or .json")
         for q in inputs:
             if os.path.exists(output) and os.path.samefile(output, q):
-                raise CLIError(f"--output {output} is the input file {q}; choose another name")
+                raise CLIError(f"--out {output} is the input file {q}; choose another name")
     if tracks is not None:
         t = os.fspath(tracks)
         if os.path.exists(t) and not os.path.isdir(t):

@@ -1,19 +1,30 @@
-r"""``adaptid fit`` with the model objects: ARMA/BJ fits, validation, summary tables, tracks.
+r"""``adaptid fit`` with the model objects: model fits, validation, summary tables, tracks.
 
-* ``--arma`` / ``--bj`` regress on signals filtered with the running
-  estimate (pseudo-linear regression), so they cannot be a fixed Φ run by an
-  estimator: a recursive ``--method`` runs the streaming object
-  (:class:`adaptid.models.RecursiveARMA` / :class:`~adaptid.models.RecursiveBJ`,
-  ``start="filled"``, so equal to the models' ``fit_recursive``; the
-  estimator built by :func:`adaptid.estimator` is read for its algorithm and
-  options, lms and nlms included), ``--method batch`` the models' ``fit``.
+* A model option without ``--method`` (and without an option only a
+  recursive run has, :data:`RECURSIVE_FLAGS`) is fitted by the model
+  object's ``fit``, as MATLAB's ``arx``, ``armax``, ``oe``, ``bj`` do: least
+  squares for ``--arx``/``--fir``/``--ar`` (:class:`adaptid.models.ARX`,
+  :class:`~adaptid.models.AR`), prediction errors for ``--arma``,
+  ``--armax``, ``--oe``, ``--bj``.
+* ``--arma`` / ``--armax`` / ``--oe`` / ``--bj`` regress on signals filtered
+  with the running estimate (pseudo-linear regression), so their recursive
+  fit cannot be a fixed Φ run by an estimator: a recursive ``--method``
+  runs the streaming object (:class:`adaptid.models.RecursiveARMA`,
+  :class:`~adaptid.models.RecursiveARMAX`, :class:`~adaptid.models.RecursiveOE`,
+  :class:`~adaptid.models.RecursiveBJ`, ``start="filled"``, so equal to the
+  models' ``fit_recursive``; the estimator built by :func:`adaptid.estimator`
+  is read for its algorithm and options, lms and nlms included). ``--arx``/``--fir``/``--ar`` with a
+  recursive method run the estimator on the model's fixed regressors (the
+  same numbers as ``ARX.fit_recursive``).
+* Parameter names are the model objects' (``a1``, ``b0``, ``b1_0``, ``c1``, ``f1``).
 * ``--validate`` / the report's figures use :func:`adaptid.models.compare`
   (simulation for input–output models, one-step prediction for AR/ARMA) and
   :func:`adaptid.models.resid` on the held-out part, with the model at the
   estimate the command printed.
-* ``--summary``: the models' ``summary()`` (ARMA, BJ), or
-  :func:`adaptid.models.recursive_summary` / :meth:`adaptid.lstsq`'s
-  ``summary()`` of the fixed regression the estimator ran on.
+* ``--summary``: the model's ``summary()`` when the model object was
+  fitted, or :func:`adaptid.models.recursive_summary` /
+  :meth:`adaptid.lstsq`'s ``summary()`` of the fixed regression the
+  estimator ran on.
 """
 
 from __future__ import annotations
@@ -25,43 +36,77 @@ import numpy as np
 from ._engine import EquationFit, MethodSpec
 from ._errors import CLIError
 
-__all__ = ["fit_model_equation", "validation_model", "validate", "summaries", "tracks_frame"]
+__all__ = ["fit_model_equation", "validation_model", "validate", "summaries", "tracks_frame",
+           "default_method", "uses_model", "model_object", "n_params", "RECURSIVE_FLAGS"]
 
 RESID_ALPHA = 0.01   # MATLAB's resid band (99 %), models.resid's default
 MAX_LAG = 25         # MATLAB's resid default
 
 
-def _cli_names(names, cols):
-    """BJ's ``b0``/``f1`` (``b0_1`` for several inputs) → ``b_COL[0]``/``f_COL[1]`` as --arx prints."""
-    out = []
-    for n in names:
-        head, rest = n[0], n[1:]
-        if head in "bf" and cols:
-            i, j = (rest.split("_") if "_" in rest else ("0", rest))
-            out.append(f"{head}_{cols[int(i)]}[{j}]")
-        else:
-            out.append(n)
-    return out
+#: what a recursive option asks for: with one of them and no --method, a model option runs RLS
+RECURSIVE_FLAGS = ("--forgetting", "--window", "--process-cov", "--noise-var", "--P0", "--step",
+                   "--eps", "--tracks", "--export-c", "--save-state", "--resume")
+
+
+def default_method(structure, given) -> str:
+    """The method when ``--method`` is not given.
+
+    A model option (``--arx``, ``--armax``, ``--oe``, ``--bj``, ``--ar``,
+    ``--arma``, ``--fir``) runs the model's batch fit, as MATLAB's ``arx``,
+    ``armax``, ``oe``, ``bj`` do, unless an option that only a recursive run
+    has is given (``given``: flag -> value, see :data:`RECURSIVE_FLAGS`):
+    then, as for ``--phi`` and ``--dc-motor``, RLS.
+    """
+    if structure.is_model and not any(given.get(f) is not None for f in RECURSIVE_FLAGS):
+        return "batch"
+    return "rls"
+
+
+def uses_model(problem, structure, spec) -> bool:
+    """Whether the equation is fitted by the model object (not by an estimator on a fixed Φ).
+
+    Always for the pseudo-linear models; for ARX/FIR/AR the batch fit on a
+    complete record without ``--intercept`` (the model's ``fit``: the same
+    least squares, with the model's summary and statistics).
+    """
+    from ._problem import PSEUDO_LINEAR
+
+    if problem.kind in PSEUDO_LINEAR:
+        return True
+    return (structure.is_model and spec.resolved == "batch" and not structure.intercept
+            and problem.nan_rows == 0 and problem.est_data is not None)
+
+
+def model_object(kind, s, dt):
+    """The model object of the option ``--KIND`` with its orders (not fitted)."""
+    from adaptid import models
+
+    o = getattr(s, kind)
+    make = {"arx": lambda: models.ARX(*o, dt=dt), "fir": lambda: models.ARX(0, *o, dt=dt),
+            "ar": lambda: models.AR(*o, dt=dt), "arma": lambda: models.ARMA(*o, dt=dt),
+            "armax": lambda: models.ARMAX(*o, dt=dt), "oe": lambda: models.OE(*o, dt=dt),
+            "bj": lambda: models.BJ(*o, dt=dt)}
+    try:
+        return make[kind]()
+    except ValueError as e:
+        raise CLIError(f"--{kind}: {e}") from None
 
 
 def _model_of(problem, s):
-    from adaptid import models
-
     dt = problem.data.dt if problem.data is not None else 1.0
-    if problem.kind == "arma":
-        return models.ARMA(*s.arma, dt=dt)
-    return models.BJ(*s.bj, dt=dt)
+    return model_object(problem.kind, s, dt)
 
 
 def fit_model_equation(problem, s, spec: MethodSpec, *, nan_policy, advance=None) -> tuple:
-    """Fit ``--arma``/``--bj`` on the estimation part; returns (EquationFit, fitted model)."""
+    """Fit a model option on the estimation part by the model object's ``fit`` (batch) or
+    ``fit_recursive``; returns (EquationFit, fitted model)."""
     est_data = problem.est_data
     y = np.ascontiguousarray(est_data.y, dtype=np.float64)
-    U = None if problem.kind == "arma" else est_data.u
+    U = est_data.u
     model = _model_of(problem, s)
-    # BJ takes the IDData (its names go into summary()); ARMA the output array
-    args = (y,) if U is None else (est_data, None)
-    title = problem.kind.upper()
+    # the IDData (its names and dt go into summary()); ARMA the output array
+    args = (y,) if problem.kind == "arma" else (est_data,)
+    title = problem.equations[0][0]
     caught = []
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
@@ -70,7 +115,8 @@ def fit_model_equation(problem, s, spec: MethodSpec, *, nan_policy, advance=None
                 model.fit(*args)
                 track, error, index = None, np.asarray(model.residuals), np.asarray(model.index)
             else:
-                d = _n_params(problem, s, 1 if U is None or np.ndim(U) == 1 else U.shape[1])
+                d = n_params(problem.kind, s.orders, 0 if U is None else 1 if np.ndim(U) == 1
+                             else U.shape[1])
                 model, track, error, index = _stream_fit(problem, s, spec.make(d, nan_policy),
                                                          args)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as e:
@@ -90,8 +136,7 @@ def fit_model_equation(problem, s, spec: MethodSpec, *, nan_policy, advance=None
     rms = float(np.sqrt(np.mean(error[warm:][finite[warm:]] ** 2))) if finite[warm:].any() \
         else float("nan")
     fit = EquationFit(
-        title=title, method=spec.resolved, label=spec.label(), names=_cli_names(model.names,
-                                                                                 problem.columns[1:]),
+        title=title, method=spec.resolved, label=_label(problem.kind, spec), names=list(model.names),
         theta=theta, stderr=np.asarray(model.stderr, dtype=np.float64),
         cov=np.asarray(model.cov), sigma2=float(model.noise_variance), n_samples=len(error),
         n_skipped=0, error=error, index=index, track=track, rms_error=rms)
@@ -102,11 +147,12 @@ def fit_model_equation(problem, s, spec: MethodSpec, *, nan_policy, advance=None
 def _stream_fit(problem, s, est, args):
     """The streaming object (start="filled", the estimator's algorithm) over the record:
     (model as fit_recursive leaves it, tracks, a-priori errors, sample index)."""
-    from adaptid.models import RecursiveARMA, RecursiveBJ
+    from adaptid import models
 
+    cls = {"arma": models.RecursiveARMA, "armax": models.RecursiveARMAX,
+           "oe": models.RecursiveOE, "bj": models.RecursiveBJ}[problem.kind]
     dt = problem.data.dt if problem.data is not None else 1.0
-    obj = (RecursiveARMA(*s.arma, start="filled", dt=dt) if problem.kind == "arma"
-           else RecursiveBJ(*s.bj, start="filled", dt=dt))._use_core(est)
+    obj = cls(*s.orders, start="filled", dt=dt)._use_core(est)
     res = obj.run(*args)
     first = min(obj._s, len(res.yhat))
     y = np.asarray(problem.est_data.y, dtype=np.float64).reshape(-1)
@@ -115,11 +161,21 @@ def _stream_fit(problem, s, est, args):
             np.arange(first, len(res.yhat)))
 
 
-def _n_params(problem, s, m):
-    if problem.kind == "arma":
-        return s.arma[0] + s.arma[1]
-    nb, nc, nd, nf, _ = s.bj
-    return m * nb + nc + nd + m * nf
+def _label(kind, spec):
+    """``batch LS`` for ARX/FIR/AR, ``batch PEM`` for the models fitted by prediction errors."""
+    from ._problem import PSEUDO_LINEAR
+
+    if spec.resolved == "batch" and kind in PSEUDO_LINEAR:
+        return "batch PEM"
+    return spec.label()
+
+
+def n_params(kind, orders, m):
+    """The number of parameters d of model ``kind`` with ``orders`` and m inputs."""
+    o = orders
+    return {"arx": lambda: o[0] + m * o[1], "fir": lambda: m * o[0], "ar": lambda: o[0],
+            "arma": lambda: o[0] + o[1], "armax": lambda: o[0] + m * o[1] + o[2],
+            "oe": lambda: m * (o[0] + o[1]), "bj": lambda: m * o[0] + o[1] + o[2] + m * o[3]}[kind]()
 
 
 # ------------------------------------------------------------------ validation
@@ -175,8 +231,9 @@ def validation_model(problem, s, fit: EquationFit, model=None):
     est = problem.est_data
     kind = problem.kind
     label = f"{_structure_label(kind, s)} ({fit.label})"
-    if kind in ("arma", "bj"):
-        return model, (1 if kind == "arma" else None), label
+    k = 1 if kind in ("ar", "arma") else None
+    if model is not None:   # fitted by the model object: validate that model
+        return model, k, label
     if kind == "phi":
         return _Static(fit.theta, label), None, label
     theta = np.asarray(fit.theta, dtype=np.float64)
@@ -196,7 +253,7 @@ def validation_model(problem, s, fit: EquationFit, model=None):
 
 
 def _structure_label(kind, s):
-    orders = {"arx": s.arx, "fir": s.fir, "ar": s.ar, "arma": s.arma, "bj": s.bj}.get(kind)
+    orders = s.orders if s.is_model else None
     if orders is None:
         return "regression"
     return f"{kind.upper()}({','.join(map(str, orders))})" + (" + intercept" if s.intercept else "")

@@ -9,9 +9,20 @@ import numpy as np
 from ._errors import CLIError
 from ..io import Table
 
-__all__ = ["Structure", "Problem", "build_problem", "parse_orders", "split_names"]
+__all__ = ["Structure", "Problem", "build_problem", "parse_orders", "split_names", "model_names",
+           "MODEL_KINDS", "PSEUDO_LINEAR", "ORDER_LABELS"]
 
 DC_MOTOR_COLUMNS = ("time", "voltage", "current", "speed")
+#: the model options of ``fit`` and ``fleet`` (their order: the order of the messages)
+MODEL_KINDS = ("arx", "fir", "ar", "arma", "armax", "oe", "bj")
+#: the models with an input (``--u``)
+INPUT_KINDS = ("arx", "fir", "armax", "oe", "bj")
+#: the models whose regressors depend on the estimate (no fixed Φ): fitted by the model objects
+PSEUDO_LINEAR = ("arma", "armax", "oe", "bj")
+#: the orders of each model option, as ``--KIND`` takes them
+ORDER_LABELS = {"arx": ("na", "nb", "nk"), "fir": ("nb", "nk"), "ar": ("na",),
+                "arma": ("na", "nc"), "armax": ("na", "nb", "nc", "nk"), "oe": ("nb", "nf", "nk"),
+                "bj": ("nb", "nc", "nd", "nf", "nk")}
 
 
 def split_names(text: str | None, option: str) -> list | None:
@@ -41,6 +52,19 @@ def parse_orders(text: str | None, option: str, labels: tuple) -> tuple | None:
     return values
 
 
+def model_names(na: int, n_inputs: int, nb: int) -> list:
+    """The model objects' parameter names of an ARX/AR/FIR regression.
+
+    ``a1`` … ``a{na}``, then ``b0`` … ``b{nb-1}`` for one input, or
+    ``b{i}_{j}`` (input i in ``--u`` order, 0-based) for several: the names
+    :class:`adaptid.models.ARX` gives (``ARX(...).fit(...).names``).
+    """
+    names = [f"a{j}" for j in range(1, na + 1)]
+    for i in range(n_inputs):
+        names += [f"b{j}" if n_inputs == 1 else f"b{i}_{j}" for j in range(nb)]
+    return names
+
+
 def polynomial_form(Phi, na: int, inputs, nb: int):
     r"""ARX/FIR regressors in the model objects' polynomial convention, and their names.
 
@@ -49,15 +73,12 @@ def polynomial_form(Phi, na: int, inputs, nb: int):
     :math:`A(q) = 1 + a_1q^{-1} + \dots`, whose coefficient multiplies
     :math:`-y_{k-j}`. The columns are negated (exactly: a sign flip) so that
     θ holds :math:`a_1, \dots, a_{n_a}` as ``models.ARX`` reports them. Names:
-    ``a1`` … ``a{na}``, then for each input column ``c`` (in ``--u`` order)
-    ``b_c[0]`` … ``b_c[nb-1]``, :math:`b_j` being the model objects' ``bj``
-    (coefficient of :math:`q^{-(n_k + j)}` in :math:`B(q)`).
+    :func:`model_names` (the model objects' own: ``a1``, ``b0``, ``b1_0``),
+    :math:`b_j` being the coefficient of :math:`q^{-(n_k + j)}` in :math:`B(q)`.
     """
     Phi = np.array(Phi, dtype=np.float64, order="C")
     Phi[:, :na] *= -1.0
-    names = [f"a{j}" for j in range(1, na + 1)]
-    for col in inputs:
-        names += [f"b_{col}[{j}]" for j in range(nb)]
+    names = model_names(na, len(inputs), nb)
     if len(names) != Phi.shape[1]:  # pragma: no cover - the builders' layout changed
         raise RuntimeError("ARX/FIR regressor layout does not match its names")
     return names, Phi
@@ -75,6 +96,8 @@ class Structure:
     ar: tuple | None = None
     arma: tuple | None = None
     bj: tuple | None = None
+    armax: tuple | None = None
+    oe: tuple | None = None
     dc_motor: bool = False
     time: str | None = None
     voltage: str | None = None
@@ -85,10 +108,11 @@ class Structure:
     intercept: bool = False
     detrend: str | None = None
     validate: float | None = None
+    dt: float | None = None
 
     @property
     def kind(self) -> str:
-        for kind in ("phi", "arx", "fir", "ar", "arma", "bj"):
+        for kind in ("phi",) + MODEL_KINDS:
             if getattr(self, kind) is not None:
                 return kind
         return "dc-motor" if self.dc_motor else "none"
@@ -104,32 +128,40 @@ class Structure:
     @property
     def is_model(self) -> bool:
         """An input-output or time-series model (not a plain regression, not --dc-motor)."""
-        return self.kind in ("arx", "fir", "ar", "arma", "bj")
+        return self.kind in MODEL_KINDS
+
+    @property
+    def orders(self) -> tuple | None:
+        """The orders of the model option given (None for --phi / --dc-motor)."""
+        return getattr(self, self.kind) if self.is_model else None
 
     def check(self):
-        chosen = [opt for opt, on in (("--phi", self.phi is not None), ("--arx", self.arx is not None),
-                                      ("--fir", self.fir is not None), ("--ar", self.ar is not None),
-                                      ("--arma", self.arma is not None), ("--bj", self.bj is not None),
-                                      ("--dc-motor", self.dc_motor)) if on]
+        chosen = [opt for opt, on in [("--phi", self.phi is not None)]
+                  + [(f"--{k}", getattr(self, k) is not None) for k in MODEL_KINDS]
+                  + [("--dc-motor", self.dc_motor)] if on]
         if not chosen:
             raise CLIError("give the regressors: --y COL --phi COL,..., --arx na,nb,nk --u COL --y COL, "
                            "--fir nb,nk --u COL --y COL, --ar na --y COL, --arma na,nc --y COL, "
+                           "--armax na,nb,nc,nk --u COL --y COL, --oe nb,nf,nk --u COL --y COL, "
                            "--bj nb,nc,nd,nf,nk --u COL --y COL, or --dc-motor")
         if len(chosen) > 1:
             raise CLIError(f"{' and '.join(chosen)} cannot be combined: choose one model structure")
         kind = self.kind
         if kind != "dc-motor" and self.y is None:
             raise CLIError(f"{chosen[0]} needs --y COL (the output column)")
-        if kind in ("arx", "fir", "bj") and self.u is None:
+        if kind in INPUT_KINDS and self.u is None:
             raise CLIError(f"{chosen[0]} needs --u COL (the input column)")
         if kind in ("phi", "ar", "arma") and self.u is not None:
-            raise CLIError(f"--u applies to --arx, --fir or --bj, not {chosen[0]}"
+            raise CLIError(f"--u applies to --arx, --fir, --armax, --oe or --bj, not {chosen[0]}"
                            + (" (a time-series model has no input)" if kind != "phi" else ""))
         for opt, lab, orders in (("--ar", "na", self.ar), ("--arma", "na", self.arma)):
             if orders is not None and orders[0] < 1:
                 raise CLIError(f"{opt}: {lab} must be >= 1, got {orders[0]}")
-        if self.bj is not None and self.bj[0] < 1:
-            raise CLIError(f"--bj: nb must be >= 1, got {self.bj[0]}")
+        for opt, orders, at in (("--bj", self.bj, 0), ("--oe", self.oe, 0)):
+            if orders is not None and orders[at] < 1:
+                raise CLIError(f"{opt}: nb must be >= 1, got {orders[at]}")
+        if self.dt is not None and not (np.isfinite(self.dt) and self.dt > 0):
+            raise CLIError(f"--dt must be a sample time in seconds > 0, got {self.dt:g}")
         if self.intercept and kind not in ("arx", "fir"):
             raise CLIError(f"--intercept applies to --arx or --fir, not {chosen[0]}"
                            + (" (add a column of ones to --phi)" if kind == "phi" else ""))
@@ -139,7 +171,8 @@ class Structure:
             raise CLIError(f"--validate must be a fraction in (0, 1) (the part of the record used "
                            f"for estimation), got {self.validate:g}")
         if kind == "dc-motor":
-            for opt, val in (("--detrend", self.detrend), ("--validate", self.validate)):
+            for opt, val in (("--detrend", self.detrend), ("--validate", self.validate),
+                             ("--dt", self.dt)):
                 if val is not None:
                     raise CLIError(f"{opt} does not apply to --dc-motor (its regressors are "
                                    "physical signals and filtered derivatives)")
@@ -171,11 +204,13 @@ class Problem:
     regs: object = None             # DCMotorRegressors for --dc-motor
     columns: list = field(default_factory=list)
     nan_rows: int = 0
-    data: object = None             # IDData of the whole record (after --detrend)
+    data: object = None             # IDData of the whole record (detrended as a whole without --validate)
     est_data: object = None         # the estimation part (all of data without --validate)
     val_data: object = None         # the held-out part (--validate)
     time_name: str | None = None    # the --time column's name
     datetime: bool = False          # the time column holds date-times (time is datetime64)
+    dt_source: str | None = None    # where the sample time came from (JSON "dt_source")
+    offsets: dict | None = None     # --detrend: what was removed from each part (JSON)
 
 
 def _nan_check(table: Table, cols: dict, nan_policy: str) -> int:
@@ -189,7 +224,7 @@ def _nan_check(table: Table, cols: dict, nan_policy: str) -> int:
             first_col[name] = int(np.argmax(m))
         bad |= m
     count = int(bad.sum())
-    if count and nan_policy == "error":
+    if count and nan_policy != "skip":
         rows = np.flatnonzero(bad)[:5] + 1
         col, at = min(first_col.items(), key=lambda kv: kv[1])
         more = ", …" if count > 5 else ""
@@ -237,11 +272,9 @@ class _Raw:
 
 
 def _record(table: Table, s: Structure, nan_policy: str):
-    """The IDData of the columns used (detrended, split), the column names and the NaN rows."""
-    from adaptid import IDData
-
+    """The IDData of the columns used (split, detrended), the column names and the NaN rows."""
     kind = s.kind
-    in_names = s.phi if kind == "phi" else s.u if kind in ("arx", "fir", "bj") else []
+    in_names = s.phi if kind == "phi" else s.u if kind in INPUT_KINDS else []
     cols = table.expand(in_names, "--phi" if kind == "phi" else "--u") if in_names else []
     opt = "--phi" if kind == "phi" else "--u"
     seen = set()
@@ -259,7 +292,7 @@ def _record(table: Table, s: Structure, nan_policy: str):
     nan = _nan_check(table, {s.y: y, **{n: X[:, j] for j, n in enumerate(cols)}}, nan_policy)
     if nan:
         for opt, on in (("--detrend", s.detrend is not None), ("--validate", s.validate is not None),
-                        (f"--{kind}", kind in ("arma", "bj"))):
+                        (f"--{kind}", kind in PSEUDO_LINEAR)):
             if on:
                 raise CLIError(f"{table.path}: {nan} row(s) with missing values; {opt} needs a "
                                "complete record (a gap breaks the "
@@ -267,21 +300,69 @@ def _record(table: Table, s: Structure, nan_policy: str):
                                   else "trend and the held-out simulation") + ")")
     if nan:  # --nan skip: the estimators skip the incomplete rows; IDData holds complete records
         raw = _Raw(y, X)
-        return None, raw, None, cols, time, is_dt, nan
-    try:
-        data = IDData(y, X if cols else None, dt=_sample_time(time, is_dt), time=time,
-                      y_names=s.y, u_names=cols or None)
-    except (ValueError, TypeError) as e:
-        raise CLIError(f"{table.path}: {e}") from None
-    if s.detrend is not None:
-        data = data.detrend(s.detrend)
+        return None, raw, None, cols, time, is_dt, nan, None
+    data, source = _iddata(table, s, y, X if cols else None, time, is_dt, cols)
     est, val = data, None
     if s.validate is not None:
         try:
             est, val = data.split(s.validate)
         except ValueError as e:
             raise CLIError(f"--validate {s.validate:g}: {e}") from None
-    return data, est, val, cols, time, is_dt, nan
+    if s.detrend is not None:   # each part on its own (MATLAB practice), or the whole record
+        if val is None:
+            data = est = data.detrend(s.detrend)
+        else:
+            est, val = est.detrend(s.detrend), val.detrend(s.detrend)
+    return data, est, val, cols, time, is_dt, nan, source
+
+
+def _iddata(table, s, y, X, time, is_dt, cols):
+    """The IDData of the record and where its ``dt`` came from.
+
+    ``--dt`` if given (IDData refuses one that contradicts the time column);
+    else IDData's own rule: the step of a regular time column, 1 without one;
+    an irregular time column without ``--dt`` takes its median step (IDData
+    accepts that as the nominal sample time).
+    """
+    from adaptid import IDData
+
+    def make(dt):
+        return IDData(y, X, dt=dt, time=time, y_names=s.y, u_names=cols or None)
+
+    try:
+        if s.dt is not None:
+            return make(s.dt), "--dt"
+        try:
+            return make(None), "time column" if time is not None else "default (no time column)"
+        except ValueError as e:
+            if "irregular" not in str(e):
+                raise
+            return make(_sample_time(time, is_dt)), "median step of the irregular time column"
+    except (ValueError, TypeError) as e:
+        raise CLIError(f"{table.path}: " + (f"--dt {s.dt:g}: " if s.dt is not None else "")
+                       + str(e)) from None
+
+
+def detrend_offsets(problem) -> dict | None:
+    """``--detrend``: what was removed from each part, per signal.
+
+    ``constant``: the mean; ``linear``: the line's values at the part's first
+    and last sample. Keys ``estimation`` (and ``validation`` with --validate).
+    """
+    def part(d):
+        names = list(d.y_names) + list(d.u_names)
+        trend = np.column_stack([d.y_trend, d.u_trend])
+        if trend.shape[0] == 0:
+            return {}
+        return {n: (float(trend[0, j]) if np.all(trend[:, j] == trend[0, j])
+                    else [float(trend[0, j]), float(trend[-1, j])]) for j, n in enumerate(names)}
+
+    if problem.est_data is None or getattr(problem.est_data, "y_trend", None) is None:
+        return None
+    out = {"estimation": part(problem.est_data)}
+    if problem.val_data is not None:
+        out["validation"] = part(problem.val_data)
+    return out
 
 
 def build_problem(table: Table, s: Structure, nan_policy: str) -> Problem:
@@ -289,15 +370,15 @@ def build_problem(table: Table, s: Structure, nan_policy: str) -> Problem:
     if kind != "dc-motor":
         from adaptid import models
 
-        data, est, val, cols, time, is_dt, nan = _record(table, s, nan_policy)
+        data, est, val, cols, time, is_dt, nan, source = _record(table, s, nan_policy)
         y = np.ascontiguousarray(est.y, dtype=np.float64)
         n_rows = len(data) if data is not None else len(est)
         common = dict(time=time, columns=[s.y, *cols], nan_rows=nan, data=data, est_data=est,
-                      val_data=val, time_name=s.time, datetime=is_dt)
+                      val_data=val, time_name=s.time, datetime=is_dt, dt_source=source)
         if kind == "phi":
             return Problem(kind, [("regression", list(cols), np.array(est.inputs), y,
                                    np.arange(len(y)))], n_rows, **common)
-        if kind in ("arma", "bj"):  # pseudo-linear: no fixed regressors (models' fit_recursive)
+        if kind in PSEUDO_LINEAR:  # pseudo-linear: no fixed regressors (models' fit_recursive)
             return Problem(kind, [(kind.upper(), None, None, y, None)], n_rows, **common)
         u = None if not cols else est.inputs[:, 0] if len(cols) == 1 else est.inputs
         try:
