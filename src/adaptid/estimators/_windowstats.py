@@ -156,8 +156,7 @@ class WindowStats:
     def pvalues(self) -> np.ndarray:
         r"""Two-sided p-values of :math:`t_j` per sample, Student's t with n_eff − n dof.
 
-        :math:`p = 2\,P(T_{
-u} > |t_j|)`, ν = n_eff − n: statsmodels'
+        :math:`p = 2\,P(T_{\nu} > |t_j|)`, ν = n_eff − n: statsmodels'
         ``RollingOLS(...).fit(use_t=True).pvalues`` without forgetting (and
         ``OLS`` on each window). NaN where there are no degrees of freedom.
         """

@@ -159,11 +159,10 @@ def _two_stage_cov(m, stage1, r, Phi_fix, reg, bandwidth):
     r"""Covariance of the two-stage estimate with the stage-1 error included.
 
     Linearising the stage-2 normal equations in θ and in the FIR
-    coefficients s, :math:`\hat	heta - 	heta pprox \sum_k z_k` with
-    :math:`z_k = A\psi_karepsilon_k - B\phi_k
-u_k`,
+    coefficients s, :math:`\hat\theta - \theta \approx \sum_k z_k` with
+    :math:`z_k = A\psi_k\varepsilon_k - B\phi_k\nu_k`,
     :math:`A = (\Psi^T\Psi)^{-1}`,
-    :math:`B = A\Psi^TG(\hat	heta)\Phi_r(\Phi_r^T\Phi_r)^{-1}` (ν, φ the
+    :math:`B = A\Psi^TG(\hat\theta)\Phi_r(\Phi_r^T\Phi_r)^{-1}` (ν, φ the
     stage-1 residuals and regressors, :math:`G\Phi_r` the stage-1 regressors
     filtered by the plant); both sums are of coloured, mutually correlated
     terms, so the covariance of Σz is estimated with Newey–West weights.
