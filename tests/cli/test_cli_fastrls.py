@@ -163,6 +163,11 @@ def test_save_resume_equals_one_run(record, tmp_path, method, nk):
     assert np.array_equal(e1, e2)
     # NaN stderr is null in JSON (as for the gradient methods)
     assert all(se is None for se in two["stderr"]) and any("--resume" in w for w in two["warnings"])
+    # σ̂² after --resume: the rule's sums over this run's samples, regressors continuing
+    # the record (recursive_fit_stats' convention for a resumed estimator)
+    Phi2, y2 = tapped(delayed(u, nk), 5)[777:], y[777:]
+    r, c = y2 - Phi2 @ np.array(two["theta"]), 0.99 ** np.arange(len(y2) - 1, -1, -1)
+    assert two["sigma2"] == pytest.approx(np.sum(c * r * r) / (c.sum() - 5), rel=1e-10)
     est = adaptid.FastRLS.load_state(s)
     py = adaptid.FastRLS(5, forgetting=0.99, delta=0.5, method=method)
     py.run_fir(delayed(u, nk), y)
@@ -186,7 +191,8 @@ def test_resume_refusals(record, tmp_path):
                           "--resume", s))
     r = tmp_path / "rls.npz"
     run_json("fit", path, "--u", "u", "--y", "y", "--fir", "4,1", "--save-state", r)
-    one_line_error(invoke("fit", path, *base, "--fir", "4,1", "--resume", r), "differs from the state file", "a RLS")
+    one_line_error(invoke("fit", path, *base, "--fir", "4,1", "--resume", r),
+                   "differs from the state file", "a RLS")
     # a FastRLS saved from Python has no labels: nk = 0 resumes, nk > 0 is refused
     p = tmp_path / "py.npz"
     adaptid.FastRLS(4, forgetting=0.99).save_state(p)

@@ -93,7 +93,8 @@ def _refuse_options(structure, spec, *, out, summary):
         raise CLIError(f"--fir: nb must be >= 1 with --method fastrls, got {structure.fir[0]}")
     why = {
         "--intercept": (structure.intercept, "a constant regressor is not in the delay line"),
-        "--detrend": (structure.detrend is not None, "remove the offsets before, or use --method rls"),
+        "--detrend": (structure.detrend is not None,
+                      "remove the offsets before, or use --method rls"),
         "--validate": (structure.validate is not None, "use --method rls or batch for validation"),
         "--summary": (summary, "FastRLS holds no covariance for the summary table; --json "
                       "gives θ, stderr and σ²"),
