@@ -314,13 +314,14 @@ def fit(
                                                       "(differenced encoder counts).",
                                                       rich_help_panel="Model")] = None,
     method: Annotated[Optional[str], typer.Option("--method", "-m",
-                                                  metavar="rls|window|kalman|lms|nlms|batch",
+                                                  metavar="rls|window|kalman|lms|nlms|batch|fastrls",
                                                   help="Estimator. Default: a model option "
                                                   "(--arx, --armax, --oe, --bj, --ar, --arma, "
                                                   "--fir) runs the model's batch fit, unless a "
                                                   "recursive option (--forgetting, --window, "
                                                   "--P0, --tracks, --export-c, --save-state, …) "
-                                                  "is given; otherwise rls.",
+                                                  "is given; otherwise rls. fastrls: --fir "
+                                                  "only (FastRLS, O(n) per sample).",
                                                   rich_help_panel="Method")] = None,
     forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1] (rls, window).",
                                                         rich_help_panel="Method")] = None,
@@ -340,6 +341,12 @@ def fit(
                                                   rich_help_panel="Method")] = None,
     eps: Annotated[Optional[float], typer.Option("--eps", help="Normalisation bias ε ≥ 0 (nlms; "
                                                  "default 2.2e-16).", rich_help_panel="Method")] = None,
+    delta: Annotated[Optional[float], typer.Option("--delta", help="Soft start δ > 0 of fastrls "
+                                                   "(P0 = diag(λ^i)/δ; default 1e-4).",
+                                                   rich_help_panel="Method")] = None,
+    fastrls_method: Annotated[Optional[str], typer.Option("--fastrls-method", metavar="ftf|lattice",
+                                                          help="fastrls algorithm (default ftf).",
+                                                          rich_help_panel="Method")] = None,
     nan: Annotated[str, typer.Option("--nan", metavar="raise|skip", help="Rows with missing values "
                                      "(Python's nan_policy): stop with an error (raise; 'error' "
                                      "is accepted as the same) or skip them (counted).")] = "raise",
@@ -362,13 +369,14 @@ def fit(
     out = _output(ctx, quiet, verbose, debug, json)
     with _guard(out), _generic_kernels():
         from ._engine import MethodSpec, parse_P0
+        from ._fastrls import parse_fir
         from ._fit import run_fit
         from ._problem import Structure, parse_orders, split_names
 
         structure = Structure(
             y=y, phi=split_names(phi, "--phi"), u=split_names(u, "--u"),
             arx=parse_orders(arx, "--arx", ("na", "nb", "nk")),
-            fir=parse_orders(fir_, "--fir", ("nb", "nk")),
+            fir=parse_fir(fir_, method),  # --method fastrls: --fir N is N,0
             ar=parse_orders(ar, "--ar", ("na",)), arma=parse_orders(arma, "--arma", ("na", "nc")),
             bj=parse_orders(bj, "--bj", ("nb", "nc", "nd", "nf", "nk")),
             armax=parse_orders(armax, "--armax", ("na", "nb", "nc", "nk")),
@@ -381,7 +389,9 @@ def fit(
             method = method.strip().lower()
         spec = MethodSpec(method=method, forgetting=forgetting, window=window,
                           process_cov=process_cov, noise_var=noise_var,
-                          P0=parse_P0(p0), step=step, eps=eps)
+                          P0=parse_P0(p0), step=step, eps=eps, delta=delta,
+                          fastrls_method=None if fastrls_method is None
+                          else fastrls_method.strip().lower())
         # run_fit prints (and emits --json) itself, before it saves the state
         run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
                 save_state=save_state, resume=resume, output=out, tracks=tracks,

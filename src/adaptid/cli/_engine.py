@@ -65,6 +65,8 @@ class MethodSpec:
     step: float | None = None   # lms, nlms
     eps: float | None = None    # nlms
     default: str = "rls"        # without --method ("batch" for a model option: see _modelfit)
+    delta: float | None = None           # fastrls (issue 38; cli/_fastrls.py)
+    fastrls_method: str | None = None    # fastrls: "ftf" or "lattice"
 
     @property
     def resolved(self) -> str:
@@ -74,7 +76,11 @@ class MethodSpec:
         """Raise CLIError for an inconsistent combination of options."""
         m = self.method
         if m is not None and m not in METHODS:
-            raise CLIError(f"--method must be one of {', '.join(METHODS)}, got {m!r}")
+            raise CLIError(f"--method must be one of {', '.join(METHODS)}, fastrls, got {m!r}")
+        for flag, val in (("--delta", self.delta), ("--fastrls-method", self.fastrls_method)):
+            if val is not None:  # --method fastrls runs in cli/_fastrls.py, not here
+                raise CLIError(f"{flag} applies to --method fastrls only, not --method "
+                               f"{self.resolved}")
         if resume is not None:
             if m == "batch":
                 raise CLIError("--resume does not apply to --method batch (no state to continue)")
