@@ -85,7 +85,9 @@ def test_equals_the_python_fastrls_and_rls(record, tmp_path, method, nk, lam, de
     v = delayed(u, nk)
     py = adaptid.FastRLS(nb, forgetting=lam, delta=delta, method=method)
     traj = py.run_fir(v, y)
-    assert out["names"] == [f"b_u[{j}]" for j in range(nb)]
+    rng = np.random.default_rng(0)  # the FIR model's own names (issue 33: one naming)
+    model = adaptid.models.ARX(0, nb, 0).fit(rng.standard_normal(50), rng.standard_normal(50))
+    assert out["names"] == list(model.names)
     assert out["method"] == "fastrls" and out["options"]["method"] == method
     assert np.allclose(out["theta"], py.theta, rtol=0, atol=1e-12)
     tr = pd.read_csv(tracks)

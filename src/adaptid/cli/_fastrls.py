@@ -13,7 +13,8 @@ samples, :math:`v_k = u_{k-n_k}`:
     \varphi_k = [v_k, v_{k-1}, \dots, v_{k-n_b+1}]^T,\qquad
     \theta = [b_0, \dots, b_{n_b-1}],
 
-the FIR model's coefficients (``b_COL[j]`` multiplies :math:`u_{k-n_k-j}`).
+the FIR model's coefficients (``bj`` multiplies :math:`u_{k-n_k-j}`, the names of
+``ARX(0, nb, nk)``).
 
 Rows with a missing value (``--nan skip``) are left out of the record before
 the delay (as FastRLS's ``nan_policy="skip"`` does: the sample is not shifted
@@ -134,12 +135,12 @@ def _check_values(spec, *, export_c, nk):
 def _check(data, structure, spec, *, nan, out, save_state, resume, tracks, summary, export_c,
            c_name, float32):
     """Every check before reading the data (the ones of ``run_fit`` for this path)."""
-    from ._fit import _check_extras, check_outputs
+    from ._fit import NAN_WORDS, _check_extras, check_outputs
     from ._targets import c_targets, check_targets
 
     structure.check()
-    if nan not in ("skip", "error"):
-        raise CLIError(f"--nan must be skip or error, got {nan!r}")
+    if nan not in NAN_WORDS:
+        raise CLIError(f"--nan must be raise or skip (error: the same as raise), got {nan!r}")
     _refuse_options(structure, spec, out=out, summary=summary)
     _check_values(spec, export_c=export_c, nk=structure.fir[1])
     if float32 and export_c is None:
@@ -364,7 +365,7 @@ def _run_locked(data, structure, spec, *, nan, save_state, resume, output, track
     table = read_table(data, columns=structure.columns())
     output.detail(f"read {table.path} ({table.kind}): columns {', '.join(table.names[:20])}")
     u, y, ok, t, col = _signals(table, structure, nan)
-    names = [f"b_{col}[{j}]" for j in range(nb)]
+    names = [f"b{j}" for j in range(nb)]  # the FIR model's names (ARX(0, nb, nk).names)
     if resume is not None:
         est, labels = _load_resume(resume)
         est, pending = _adopt(est, labels, structure, spec, names, policy, resume)
