@@ -7,7 +7,10 @@
 windowed statistics; ``_step`` the packed sample of ``update``'s step entry;
 ``_segments`` the statistics of segment runs; ``_parallel`` the one factory
 of the parallel wrappers (``run_batched``, ``run_segments``) of a ``run``.
-Each algorithm module declares ``ENTRIES`` (name ->
+Outside the entry tables (their data are not rows of Φ): ``_smoother``
+(the Rauch–Tung–Striebel smoother and log-likelihood of ``KalmanRLS``) and
+``_fastrls`` (the fast transversal filter and QR lattice of ``FastRLS``, on
+a delay line). Each algorithm module declares ``ENTRIES`` (name ->
 :class:`._entries.Entries`), which :mod:`adaptid._kernels` maps to its public
 names.
 """
