@@ -210,32 +210,8 @@ def generate(est, name, dtype):
 
 
 def write(est, directory, name, dtype):
-    """Write NAME.h and NAME.c as a pair or not at all (as :func:`._generate.write`)."""
-    import os
-    import tempfile
-    from pathlib import Path
+    """Write NAME.h and NAME.c as a pair or not at all (:func:`._generate.write_texts`)."""
+    from ._generate import check_name, write_texts
 
-    from ._generate import _umask, check_name
     name = check_name(name)
-    header, source = generate(est, name, dtype)
-    out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
-    h, c = out / f"{name}.h", out / f"{name}.c"
-    temps = []
-    try:
-        for text, target in ((header, h), (source, c)):
-            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=out)
-            temps.append(tmp)
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(temps[1], c)
-        os.replace(temps[0], h)
-        temps = []
-    finally:
-        for tmp in temps:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-    return h, c
+    return write_texts(generate(est, name, dtype), directory, name)

@@ -12,10 +12,7 @@ process part, to rounding).
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
@@ -215,27 +212,6 @@ def generate_narx(obj, *, name="narx", dtype="float64"):
 
 def write_narx(obj, directory, *, name="narx", dtype="float64"):
     """Write NAME.h and NAME.c (as a pair or not at all); returns their paths."""
-    texts = generate_narx(obj, name=name, dtype=dtype)
-    out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
-    targets = (out / f"{name}.h", out / f"{name}.c")
-    temps = []
-    try:
-        for text, target in zip(texts, targets):
-            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=out)
-            temps.append(tmp)
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            mask = os.umask(0)
-            os.umask(mask)
-            os.chmod(tmp, 0o666 & ~mask)
-        os.replace(temps[1], targets[1])
-        os.replace(temps[0], targets[0])
-        temps = []
-    finally:
-        for tmp in temps:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-    return targets
+    from ._generate import write_texts
+
+    return write_texts(generate_narx(obj, name=name, dtype=dtype), directory, name)
