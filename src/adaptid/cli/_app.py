@@ -392,10 +392,14 @@ def fit(
                           P0=parse_P0(p0), step=step, eps=eps, delta=delta,
                           fastrls_method=None if fastrls_method is None
                           else fastrls_method.strip().lower())
-        # run_fit prints (and emits --json) itself, before it saves the state
-        run_fit(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
-                save_state=save_state, resume=resume, output=out, tracks=tracks,
-                summary=summary, export_c=export_c, c_name=c_name, float32=float32)
+        from ._fastrls import run_fastrls, wants_fastrls
+
+        # issue 38: FastRLS runs on the delay line of u, not on a fixed Φ
+        run = run_fastrls if wants_fastrls(spec, resume) else run_fit
+        # the run prints (and emits --json) itself, before it saves the state
+        run(data, structure, spec, nan=nan.strip().lower(), out=out_dir,
+            save_state=save_state, resume=resume, output=out, tracks=tracks,
+            summary=summary, export_c=export_c, c_name=c_name, float32=float32)
 
 
 # -------------------------------------------------------------------- fleet

@@ -106,13 +106,11 @@ def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume,
 def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
             save_state=None, resume=None, output: Output, tracks=None, summary=False,
             export_c=None, c_name="rls", float32=False) -> dict:
-    """The whole ``fit`` command; returns the JSON-ready result."""
-    from ._fastrls import run_fastrls, wants_fastrls
+    """The whole ``fit`` command; returns the JSON-ready result.
 
-    if wants_fastrls(spec, resume):  # issue 38: FastRLS on the delay line, not a fixed Φ
-        return run_fastrls(data, structure, spec, nan=nan, out=out, save_state=save_state,
-                           resume=resume, output=output, tracks=tracks, summary=summary,
-                           export_c=export_c, c_name=c_name, float32=float32)
+    (``--method fastrls`` goes to :func:`._fastrls.run_fastrls` instead: the
+    command dispatches, see ``_app.fit``.)
+    """
     t0 = _time.perf_counter()
     structure.check()
     if nan not in NAN_WORDS:

@@ -506,3 +506,26 @@ def _build_from_file(header, arrays, cls, own):
         "estimator": header["estimator"], "format": outer.get("format"),
         "n_params": outer["n_params"], "options": dict(outer["options"]), "inner": state,
         **{key: arrays[name] for key, name in own.items()}})
+
+
+class StateFileMethods:
+    """``save_state`` / ``load_state`` for classes registered with the state-file container.
+
+    The model objects that stream (RecursiveARX, RecursiveIV, RecursiveNARX,
+    the pseudo-linear streams) keep their state in this container; the
+    methods are the same for all of them.
+    """
+
+    def save_state(self, path):
+        """Write the state to ``path`` (adaptid's versioned, checksummed ``.npz``; never pickle)."""
+        save_state(self, path)
+
+    @classmethod
+    def load_state(cls, path):
+        """Read a file of :meth:`save_state` (a :class:`~adaptid.StateFileError` if damaged
+        or of another class)."""
+        obj = load_state(path)
+        if type(obj) is not cls:
+            raise StateFileError(f"{path}: not a {cls.__name__} state file")
+        return obj
+

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._validation import as_float_array, check_int, check_scalar, check_spd, param_error
+from ...estimators._statefile import StateFileMethods
 from ..streaming._arx import RecursiveARX, StreamResult
 
 __all__ = ["RecursiveIV", "RecursiveIVResult"]
@@ -69,7 +70,7 @@ class RecursiveIVResult(StreamResult):
         return "\n".join(lines)
 
 
-class RecursiveIV:
+class RecursiveIV(StateFileMethods):
     r"""Recursive instrumental-variable ARX estimator with an auxiliary model.
 
     For the ARX structure of :class:`~adaptid.models.RecursiveARX`,
@@ -396,23 +397,6 @@ class RecursiveIV:
     def from_state(cls, state: dict):
         """Rebuild from :meth:`get_state`'s dict (exact round trip)."""
         return _restore(cls, state)
-
-    def save_state(self, path):
-        """Write the state to ``path`` (adaptid's versioned, checksummed ``.npz``; never pickle)."""
-        from ...estimators._statefile import save_state
-        save_state(self, path)
-
-    @classmethod
-    def load_state(cls, path):
-        """Read a file of :meth:`save_state` (a :class:`~adaptid.StateFileError` if damaged
-        or of another class)."""
-        from ..._exceptions import StateFileError
-        from ...estimators._statefile import load_state
-
-        obj = load_state(path)
-        if type(obj) is not cls:
-            raise StateFileError(f"{path}: not a {cls.__name__} state file")
-        return obj
 
     def __repr__(self):
         return (f"RecursiveIV(na={self.na}, nb={self.nb}, nk={self.nk}, forgetting="

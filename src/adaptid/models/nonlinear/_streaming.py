@@ -2,13 +2,13 @@ r"""Streaming NARX: a selected polynomial structure identified one sample at a t
 
 from __future__ import annotations
 
-import copy
 import re
 from types import SimpleNamespace
 
 import numpy as np
 
 from ..._validation import as_float_array, check_choice, check_int, param_error
+from ...estimators._statefile import StateFileMethods
 from ._basis import evaluate
 from ._recursive import make_estimator
 from ._results import term_name
@@ -61,7 +61,7 @@ def _shell(ylag, ulag, degree, nk, y_names, u_names, dt, outputs):
     return m
 
 
-class RecursiveNARX:
+class RecursiveNARX(StateFileMethods):
     r"""Streaming polynomial NARX: the selected terms re-estimated sample by sample.
 
     The structure — the terms :math:`p_j` of one output :math:`y_o`,
@@ -442,23 +442,6 @@ class RecursiveNARX:
         if type(count) is not int or count < 0:
             raise param_error("state['options']['count']", "an integer >= 0", count)
         obj._ybuf, obj._ubuf, obj._count = ybuf, ubuf, count
-        return obj
-
-    def save_state(self, path):
-        """Write the state to ``path`` (adaptid's versioned, checksummed ``.npz``; never pickle)."""
-        from ...estimators._statefile import save_state
-        save_state(self, path)
-
-    @classmethod
-    def load_state(cls, path):
-        """Read a file of :meth:`save_state` (a :class:`~adaptid.StateFileError` if damaged
-        or of another class)."""
-        from ..._exceptions import StateFileError
-        from ...estimators._statefile import load_state
-
-        obj = load_state(path)
-        if type(obj) is not cls:
-            raise StateFileError(f"{path}: not a {cls.__name__} state file")
         return obj
 
     def __repr__(self):

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._validation import as_float_array, check_choice, param_error
+from ...estimators._statefile import StateFileMethods
 
 __all__ = ["RecursiveARX", "RecursiveAR", "StreamResult"]
 
@@ -90,7 +91,7 @@ def _row_dot(Phi, Th):
     return (Phi * Th).sum(axis=1)
 
 
-class RecursiveARX:
+class RecursiveARX(StateFileMethods):
     r"""Streaming ARX model: MATLAB's ``recursiveARX`` (``obj = recursiveARX([na nb nk])``).
 
     .. math::
@@ -455,23 +456,6 @@ class RecursiveARX:
         if type(count) is not int or count < 0:
             raise param_error("state['options']['count']", "an integer >= 0", count)
         obj._est, obj._ybuf, obj._ubuf, obj._count = inner, ybuf, ubuf, count
-        return obj
-
-    def save_state(self, path):
-        """Write the state to ``path`` (adaptid's versioned, checksummed ``.npz``; never pickle)."""
-        from ...estimators._statefile import save_state
-        save_state(self, path)
-
-    @classmethod
-    def load_state(cls, path):
-        """Read a file of :meth:`save_state` (a :class:`~adaptid.StateFileError` if damaged
-        or of another class)."""
-        from ..._exceptions import StateFileError
-        from ...estimators._statefile import load_state
-
-        obj = load_state(path)
-        if not isinstance(obj, cls) or type(obj) is not cls:
-            raise StateFileError(f"{path}: not a {cls.__name__} state file")
         return obj
 
     def __repr__(self):

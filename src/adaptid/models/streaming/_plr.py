@@ -16,6 +16,7 @@ import warnings
 import numpy as np
 
 from ..._validation import as_float_array, check_choice, param_error
+from ...estimators._statefile import StateFileMethods
 from ._arx import _METHODS, _STARTS, RecursiveARX, StreamResult, _core_estimator
 from ._plr_state import _PACKED, _packed, restore
 
@@ -26,7 +27,7 @@ _STATE_FORMAT = 1
 _ARRAYS = ("theta", "U", "D", "vh", "Bphi", "By")
 
 
-class _PseudoLinearStream:
+class _PseudoLinearStream(StateFileMethods):
     """Shared body of RecursiveARMAX / ARMA / OE / BJ (see :class:`RecursiveARMAX`)."""
 
     _kind = None
@@ -293,18 +294,6 @@ class _PseudoLinearStream:
                              "(a window buffer of window × n_params entries beyond "
                              f"{MAX_PARAMS}²)")
         save_state(self, path)
-
-    @classmethod
-    def load_state(cls, path):
-        """Read a file of :meth:`save_state` (a :class:`~adaptid.StateFileError` if damaged
-        or of another class)."""
-        from ..._exceptions import StateFileError
-        from ...estimators._statefile import load_state
-
-        obj = load_state(path)
-        if type(obj) is not cls:
-            raise StateFileError(f"{path}: not a {cls.__name__} state file")
-        return obj
 
     def __repr__(self):
         orders = ", ".join(f"{k}={v}" for k, v in self._options().items() if k != "single")
