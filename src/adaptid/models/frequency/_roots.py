@@ -42,6 +42,14 @@ class Roots:
     def __len__(self):
         return self.values.size
 
+    def __iter__(self):
+        """The roots in order (as iterating the ``values`` array): ``sorted(m.poles())`` works."""
+        return iter(self.values)
+
+    def __getitem__(self, key):
+        """``roots[k]`` is the k-th root (a complex number); slices give arrays."""
+        return self.values[key]
+
     @property
     def real(self):
         """Real parts of the roots (as ``ndarray.real``)."""
