@@ -249,7 +249,9 @@ def test_overflowing_phi_norm_is_not_a_missing_sample():
     # finite φ whose φᵀφ overflows must be used, not skipped.
     phi = np.array([1e200, 1.0])
     est = adaptid.NLMS(2, step=0.5, nan_policy="skip", theta0=[0.0, 0.0])
-    assert est.update(phi, 1.0) == 1.0 and est.n_skipped == 0 and est.n_updates == 1
+    # ... and says that its step was lost to the overflow (issue 32, point 6)
+    with pytest.warns(adaptid.DivergenceWarning, match="overflowed"):
+        assert est.update(phi, 1.0) == 1.0 and est.n_skipped == 0 and est.n_updates == 1
     assert np.array_equal(est.theta, [0.0, 0.0])  # μ/(ε + inf) = 0, as padasip: no step
     f = padasip.filters.FilterNLMS(n=2, mu=0.5, eps=est.eps, w="zeros")
     with np.errstate(over="ignore"):

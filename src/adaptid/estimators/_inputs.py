@@ -93,11 +93,17 @@ def check_y(self, y):
     return as_float_array(y, "y", shape=(p,), finite=False)
 
 
+#: the smallest normal float64: a weight below it (subnormal) is taken as 0; the
+#: kernels' r = λ/w would overflow (U-D, Kalman, window: NaN and a windup warning)
+TINY = float(np.finfo(np.float64).tiny)
+
+
 def check_weight(weight):
-    """The weight w ≥ 0 of ``update`` as a float."""
+    """The weight w ≥ 0 of ``update`` as a float (below the smallest normal float: 0)."""
     if weight == 1.0 and type(weight) in (float, int):
         return 1.0
-    return check_scalar(weight, "weight", low=0.0)
+    w = check_scalar(weight, "weight", low=0.0)
+    return 0.0 if w < TINY else w
 
 
 def nonfinite_step(self, phi, y):
@@ -136,7 +142,7 @@ def run_arrays(self, Phi, y, weights, batched, precheck=True):
                 idx = np.argwhere(~np.isfinite(arr))[0]
                 raise param_error(name, "finite (no NaN or inf) with nan_policy='raise'",
                                   f"<a non-finite value at sample {tuple(int(i) for i in idx[:lead])}>")
-    w = self._per_sample(weights, "weights", shape_N, low=0.0)
+    w = self._per_sample(weights, "weights", shape_N, low=0.0, tiny_zero=True)
     # read-only views: the kernels see one array type whatever the caller
     # passes (a writeable and a read-only array would compile twice)
     Phi, Y = Phi.view(), Y.view()
@@ -145,8 +151,12 @@ def run_arrays(self, Phi, y, weights, batched, precheck=True):
     return Phi, Y, w
 
 
-def per_sample(value, name, shape_N, *, low=None, high=None, low_open=False, default=1.0):
+def per_sample(value, name, shape_N, *, low=None, high=None, low_open=False, default=1.0,
+               tiny_zero=False):
     """A scalar or per-sample array as a read-only array of shape shape_N.
+
+    With ``tiny_zero`` (the weights), values below the smallest normal float
+    (subnormal) become 0: they behave as zero weights.
 
     A scalar is broadcast (no copy). A per-sample array is given the same
     numba type as a broadcast scalar (strided layout 'A', read-only), copied
@@ -157,6 +167,8 @@ def per_sample(value, name, shape_N, *, low=None, high=None, low_open=False, def
         value = default
     if np.ndim(value) == 0:
         v = check_scalar(value, name, low=low, high=high, low_open=low_open)
+        if tiny_zero and v < TINY:
+            v = 0.0
         return strided(np.broadcast_to(np.float64(v), shape_N))
     arr = as_float_array(value, name)
     try:
@@ -169,4 +181,6 @@ def per_sample(value, name, shape_N, *, low=None, high=None, low_open=False, def
         lo = "(" if low_open else "["
         raise param_error(name, f"in {lo}{low}, {high if high is not None else 'inf'}]",
                           "<values outside that range>")
+    if tiny_zero and (arr < TINY).any():
+        arr = np.where(arr < TINY, 0.0, arr)
     return strided(arr)

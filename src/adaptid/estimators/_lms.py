@@ -32,8 +32,9 @@ class _Gradient(RecursiveEstimator):
             return  # once per episode: reset() re-arms the warning
         self._windup_warned = True
         warnings.warn(
-            f"{type(self).__name__}: the estimate diverged (θ not finite) at sample {where}; "
-            f"step={self.step:g} is too large for these regressors", DivergenceWarning,
+            f"{type(self).__name__}: the estimate diverged (θ not finite) or the data "
+            f"overflowed or underflowed (φᵀφ not a normal float) at sample {where}; "
+            f"step={self.step:g} too large, or data to rescale", DivergenceWarning,
             stacklevel=3)
 
     def _warn_segments(self, status):
@@ -41,8 +42,9 @@ class _Gradient(RecursiveEstimator):
         if bad.size:
             warnings.warn(
                 f"{type(self).__name__}: in {bad.size} segment(s) (first: segment {int(bad[0])}, "
-                f"sample {int(status[bad[0]])}) the estimate diverged (θ not finite); "
-                f"step={self.step:g} is too large", DivergenceWarning, stacklevel=3)
+                f"sample {int(status[bad[0]])}) the estimate diverged (θ not finite) or the "
+                f"data overflowed or underflowed; step={self.step:g} too large, or data to "
+                "rescale", DivergenceWarning, stacklevel=3)
 
 
 class LMS(_Gradient):
@@ -62,7 +64,8 @@ class LMS(_Gradient):
     forgetting factor applies (``forgetting=`` raises ValueError), and the
     standard errors of :func:`adaptid.recursive_fit_stats` are NaN. The
     estimate converges in the mean for :math:`0 < \mu < 2/\lambda_{max}(E\,\varphi\varphi^T)`;
-    a θ that overflows raises :class:`~adaptid.DivergenceWarning`.
+    a θ that overflows raises :class:`~adaptid.DivergenceWarning` (so does, for
+    :class:`NLMS`, a normalisation ε + φᵀφ that overflows or underflows).
 
     Parameters
     ----------

@@ -16,7 +16,10 @@ State ``S = [ theta (n·p, row-major (n, p)) ]``: no covariance.
 ``lam``, ``mat``, ``Lk`` and ``St`` are unused (no forgetting). The code is the first
 sample after which θ is no longer finite (the gradient diverged: step too
 large: the first sample whose a-priori error is not finite, or the last
-sample if only the final θ is not), or −1. Per sample (MATLAB ``recursiveLS``, EstimationMethod
+sample if only the final θ is not), or the first sample of finite data whose
+NLMS normalisation ε + φᵀφ overflowed or underflowed (below the smallest
+normal float with φ ≠ 0: data of size 1e300 or 1e-160; the step is then 0 or
+meaningless), or −1. Per sample (MATLAB ``recursiveLS``, EstimationMethod
 ``Gradient`` / ``NormalizedGradient``; padasip ``FilterLMS`` / ``FilterNLMS``):
 
 .. math::
@@ -39,6 +42,9 @@ from ..toolchain._scratch import scratch, small_scratch
 from ._bierman import _finite_row
 from ._entries import Entries
 from ._parallel import batched, segments
+
+#: the smallest normal float64: a φᵀφ below it has lost its precision (subnormal) or is 0
+TINY = np.finfo(np.float64).tiny
 
 
 @njit(**NJIT_INLINE)
@@ -76,6 +82,21 @@ def _dot(c, sign, A, k, b, off, stride, NP, square):
 
 
 @njit(**NJIT_INLINE)
+def _lost_norm(q, Phi, k, NP):
+    """Whether NLMS's ε + φᵀφ of finite data lost the sample: overflowed (the
+    step h/q is then 0) or fell below the smallest normal float with φ ≠ 0
+    (underflowed: the step is 0 or wildly rounded). φ = 0 with ε = 0 is not."""
+    if not q < np.inf:
+        return True
+    if q >= TINY:
+        return False
+    nz = False
+    for i in range(NP):
+        nz |= Phi[k, i] != 0.0
+    return nz
+
+
+@njit(**NJIT_INLINE)
 def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
     # θ is worked on in a stack copy when p = 1 (see _scratch and _rls): LLVM
     # then knows that the stores to the trajectory cannot change it and keeps
@@ -101,7 +122,7 @@ def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
         # no φᵀφ (n more products per sample).
         if norm:
             q = _dot(bias, 1.0, Phi, k, th, 0, 0, NP, True)
-            ok = q - q == 0.0
+            ok = (q - q == 0.0) & (q >= TINY)
         else:
             q = 0.0
             ok = True
@@ -115,6 +136,8 @@ def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
                 for j in range(p):
                     if not (e[j] - e[j] == 0.0):  # finite data, non-finite error: diverged
                         bad = k
+                if norm and _lost_norm(q, Phi, k, NP):
+                    bad = k
         if ok:
             for j in range(p):
                 E[k, j] = e[j]

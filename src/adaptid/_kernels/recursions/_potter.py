@@ -32,7 +32,10 @@ unrolled loops of a constant n); the run-time-n kernel runs the same arithmetic
 as loops.
 
 Monitoring: the code is the first sample after which a diagonal entry of
-P = S Sᵀ left (0, ``opt[0]``) (zero: S lost rank; NaN/inf: overflow), or −1.
+P = S Sᵀ left (0, ``opt[0]``) (zero: S lost rank; NaN/inf: overflow), or
+whose denominator d = r + φᵀPφ is not finite (data so large that φᵀPφ
+overflows: the gain h/d is then 0 and θ would stay put silently; one compare
+per sample), or −1.
 The rule itself — :math:`\mathrm{diag}(SS^T)_i = \sum_j S_{ij}^2` summed in
 order, compared with 0 and ``opt[0]`` (:func:`_diag_inside`) — costs a pass
 over S; it is evaluated only when cheap bounds cannot decide. In real
@@ -173,7 +176,7 @@ def _errors(theta, phi, Y, k, e, E, NP, p):
 @njit(**NJIT_INLINE)
 def _gain(q, h, a, theta, e, lam, wk, NP, p):
     """a = β h (β = γ s/d = s/(d + √(r d)), d = r + q, q = fᵀf), θ ← θ + h ε/d;
-    returns (s, r/d). a first: the next sweep waits for it, not for θ."""
+    returns (s, r/d, d). a first: the next sweep waits for it, not for θ."""
     r = lam / wk
     d = r + q
     s = 1.0 / np.sqrt(lam)
@@ -185,7 +188,7 @@ def _gain(q, h, a, theta, e, lam, wk, NP, p):
         g = h[i] * idd
         for j in range(p):
             theta[i, j] += g * e[j]
-    return s, r * idd
+    return s, r * idd, d
 
 
 @njit(**NJIT_INLINE)
@@ -224,7 +227,9 @@ def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
                     a[i] = 0.0
                     f[i] = 0.0
                 q = _sweep(F, f, h, a, 1.0, phi, NP)
-            s, rd = _gain(q, h, a, theta, e, lam[k], wk, NP, p)
+            s, rd, d = _gain(q, h, a, theta, e, lam[k], wk, NP, p)
+            if not d < np.inf and bad < 0:  # d = r + φᵀPφ overflowed: no step was taken
+                bad = k
             q = _sweep(F, f, h, a, s, Phi[k + 1] if k + 1 < N else phi, NP)
             fresh = True
             lo *= (rd - tau) * (1.0 - tau) / lam[k]
