@@ -44,6 +44,10 @@ class RecursiveEstimator:
 
     #: the algorithm's declaration (:class:`~._spec.AlgorithmSpec`), set by each class
     spec = None
+    #: True while ``update`` / ``run`` / ``run_batched`` runs (:func:`._inputs.in_use`);
+    #: a class attribute: never in an instance's dict, so a copy or a rebuilt state
+    #: (``from_state``, pickling, the sqrt → U-D switch) never carries it
+    _busy = False
 
     def _before_stats(self):
         """Called by a run with ``stats=True`` before its kernel (RLS: leave the
@@ -258,6 +262,7 @@ class RecursiveEstimator:
     _nonfinite_step = _inputs.nonfinite_step
     _run_arrays = _inputs.run_arrays
     _per_sample = staticmethod(_inputs.per_sample)
+    _in_use = _inputs.in_use
     # one sample (._update)
     update = _update.update
     compile_update = _update.compile_update

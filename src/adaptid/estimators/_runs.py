@@ -17,6 +17,7 @@ from dataclasses import replace
 import numpy as np
 
 from .. import _kernels
+from .._kernels.recursions._parallel import parallel_guard
 from .._validation import param_error
 from . import _inputs
 from ._trajectory import Trajectory
@@ -57,34 +58,47 @@ def run(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
     -------
     Trajectory
         Bit-for-bit the result of N calls of :meth:`update`.
+
+    Raises
+    ------
+    RuntimeError
+        If another ``update`` / ``run`` / ``run_batched`` on this estimator is
+        running (another thread): an estimator is not thread-safe; give each
+        thread its own (``est.copy()``).
     """
-    self._check_single("run")
-    labels = _inputs.labels(Phi, y)
-    want = check_stats(self, stats, has_constant)
-    Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
-    lam = self._lam_run(forgetting, Phi.shape[:1])
-    if want:
-        self._before_stats()
-    Th, E, skipped = self._alloc(Phi.shape[:1], store or want)
-    Lk = np.empty(Phi.shape[0] if self._reports or self._diffuse else 0)
-    St = stats_rows(self, Phi.shape[:1], want)
-    backup = self._S.copy()  # restored if the kernel raises: a failed run changes nothing
+    if self._busy:
+        raise self._in_use("run")
+    self._busy = True
     try:
-        code = self._kern.run(self._S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt,
-                              self._mat, self._ntag, self._ptag)
-    except BaseException:
-        self._S = backup
-        raise
-    self._raise_if_skipped(skipped, Phi, Y, backup)
-    self._count(skipped)
-    self._report_codes(code, None)
-    if want:
-        labels["stats"] = finish_stats(self, St, Th, Phi, has_constant,
-                                       Lk if self._diffuse else None).with_labels(
-                                           labels.get("names"), labels.get("time"))
-    traj = self._finish(Th, E, skipped, store, code if self._rebuilds else 0,
-                        Lk if self._reports else None, Lk)
-    return replace(traj, **labels) if labels else traj
+        self._check_single("run")
+        labels = _inputs.labels(Phi, y)
+        want = check_stats(self, stats, has_constant)
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=False, precheck=False)
+        lam = self._lam_run(forgetting, Phi.shape[:1])
+        if want:
+            self._before_stats()
+        Th, E, skipped = self._alloc(Phi.shape[:1], store or want)
+        Lk = np.empty(Phi.shape[0] if self._reports or self._diffuse else 0)
+        St = stats_rows(self, Phi.shape[:1], want)
+        backup = self._S.copy()  # restored if the kernel raises: a failed run changes nothing
+        try:
+            code = self._kern.run(self._S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt,
+                                  self._mat, self._ntag, self._ptag)
+        except BaseException:
+            self._S = backup
+            raise
+        self._raise_if_skipped(skipped, Phi, Y, backup)
+        self._count(skipped)
+        self._report_codes(code, None)
+        if want:
+            labels["stats"] = finish_stats(self, St, Th, Phi, has_constant,
+                                           Lk if self._diffuse else None).with_labels(
+                                               labels.get("names"), labels.get("time"))
+        traj = self._finish(Th, E, skipped, store, code if self._rebuilds else 0,
+                            Lk if self._reports else None, Lk)
+        return replace(traj, **labels) if labels else traj
+    finally:
+        self._busy = False
 
 
 def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
@@ -106,35 +120,49 @@ def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True, stat
         ``.theta`` (B, N, n), ``.error`` (B, N). Afterwards ``theta`` and
         ``P`` carry the leading axis B; each stream started from this
         estimator's state (or continues it, if already batched).
+
+    Raises
+    ------
+    RuntimeError
+        If another ``update`` / ``run`` / ``run_batched`` on this estimator is
+        running (another thread): an estimator is not thread-safe; give each
+        thread its own (``est.copy()``).
     """
-    want = check_stats(self, stats, has_constant)
-    Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True, precheck=False)
-    shape_N = Phi.shape[:2]
-    lam = self._lam_run(forgetting, shape_N)
-    if want:
-        self._before_stats()
-    St = stats_rows(self, shape_N, want)
-    S = self._prepare_batch(shape_N[0])
-    Th, E, skipped = self._alloc(shape_N, store or want)
-    Lk = np.empty(shape_N if self._reports or self._diffuse else (shape_N[0], 0))
-    codes = np.empty(shape_N[0], dtype=np.int64)
-    soa = self._soa_entry("batched", shape_N[0], store or St is not None)
-    if soa is not None:  # same results; its signature has no statistics output
-        soa(S, Phi, Y, lam, w, Th, E, skipped, Lk, self._opt, self._mat, codes, self._ntag,
-            self._ptag)
-    else:
-        self._kern.run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt,
-                               self._mat, codes, self._ntag, self._ptag)
-    self._raise_if_skipped(skipped, Phi, Y, None)  # S is a copy: nothing to restore
-    self._S, self._batch = S, shape_N[0]
-    self._count(skipped)
-    self._report_codes(codes, "stream")
-    ws = finish_stats(self, St, Th, Phi, has_constant, Lk if self._diffuse else None) \
-        if want else None
-    traj = self._finish(Th, E, skipped, store,
-                        codes.sum() if self._rebuilds else 0,
-                        Lk if self._reports else None, Lk)
-    return replace(traj, stats=ws) if want else traj
+    if self._busy:
+        raise self._in_use("run_batched")
+    self._busy = True
+    try:
+        want = check_stats(self, stats, has_constant)
+        Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True, precheck=False)
+        shape_N = Phi.shape[:2]
+        lam = self._lam_run(forgetting, shape_N)
+        if want:
+            self._before_stats()
+        St = stats_rows(self, shape_N, want)
+        S = self._prepare_batch(shape_N[0])
+        Th, E, skipped = self._alloc(shape_N, store or want)
+        Lk = np.empty(shape_N if self._reports or self._diffuse else (shape_N[0], 0))
+        codes = np.empty(shape_N[0], dtype=np.int64)
+        soa = self._soa_entry("batched", shape_N[0], store or St is not None)
+        with parallel_guard():  # the workqueue layer: one parallel call at a time
+            if soa is not None:  # same results; its signature has no statistics output
+                soa(S, Phi, Y, lam, w, Th, E, skipped, Lk, self._opt, self._mat, codes,
+                    self._ntag, self._ptag)
+            else:
+                self._kern.run_batched(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, self._opt,
+                                       self._mat, codes, self._ntag, self._ptag)
+        self._raise_if_skipped(skipped, Phi, Y, None)  # S is a copy: nothing to restore
+        self._S, self._batch = S, shape_N[0]
+        self._count(skipped)
+        self._report_codes(codes, "stream")
+        ws = finish_stats(self, St, Th, Phi, has_constant, Lk if self._diffuse else None) \
+            if want else None
+        traj = self._finish(Th, E, skipped, store,
+                            codes.sum() if self._rebuilds else 0,
+                            Lk if self._reports else None, Lk)
+        return replace(traj, stats=ws) if want else traj
+    finally:
+        self._busy = False
 
 
 def run_segments(self, Phi, y, offsets, *, weights=None, store=False, stats=False):
@@ -184,16 +212,18 @@ def run_segments(self, Phi, y, offsets, *, weights=None, store=False, stats=Fals
     Lk = np.empty(N if self._reports or self._diffuse else 0)
     status = np.empty(G, dtype=np.int64)
     soa = self._soa_entry("segments", G, store)
-    if soa is not None:
-        soa(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, self._opt, self._mat, status,
-            self._ntag, self._ptag)
-    else:
-        self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, None,
-                                self._opt, self._mat, status, self._ntag, self._ptag)
+    with parallel_guard():  # the workqueue layer: one parallel call at a time
+        if soa is not None:
+            soa(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, self._opt, self._mat, status,
+                self._ntag, self._ptag)
+        else:
+            self._kern.run_segments(S0, Sout, Phi, Y, off, lam, w, Th, E, skipped, Lk, None,
+                                    self._opt, self._mat, status, self._ntag, self._ptag)
     self._raise_if_skipped(skipped, Phi, Y, None)
     n_skip = np.empty(G, dtype=np.int64)
     sse = np.empty((G, E.shape[1]))
-    segment_stats(E, skipped, off, n_skip, sse)
+    with parallel_guard():
+        segment_stats(E, skipped, off, n_skip, sse)
     n_used = np.diff(off) - n_skip
     P = self._covariance_of(Sout) if self.spec.covariance else None
     if self._diffuse:

@@ -108,7 +108,8 @@ def update(self, phi, y, *, weight=1.0, forgetting=None):
     phi : array_like, shape (n,)
     y : float or array_like, shape (p,)
     weight : float
-        wₖ ≥ 0 (0: the sample only advances the forgetting).
+        wₖ ≥ 0 (0: the sample only advances the forgetting; a weight below the
+        smallest normal float, ~2.2e-308, counts as 0).
     forgetting : float, optional
         λₖ for this step (default: the estimator's ``forgetting``; RLS
         and the sliding window only).
@@ -117,73 +118,86 @@ def update(self, phi, y, *, weight=1.0, forgetting=None):
     -------
     float or ndarray, shape (p,)
         NaN for a sample skipped under ``nan_policy="skip"``.
+
+    Raises
+    ------
+    RuntimeError
+        If another ``update`` / ``run`` / ``run_batched`` on this estimator is
+        running (another thread): an estimator is not thread-safe; give each
+        thread its own (``est.copy()``).
     """
-    if self._batch is not None:
-        self._check_single("update")
-    w = 1.0 if type(weight) is float and weight == 1.0 else self._weight(weight)
-    lam = self._lam_fixed if forgetting is None else self._lam_step(forgetting)
-    a = self._step
-    S = self._S
-    if S is not a.step_S:
-        self._find_step(S)
-    if a.step_ep is not None:
-        # the narrow step entry (adaptid._kernels.recursions._step): two arrays to unbox, not eleven
-        R = a.R
+    if self._busy:
+        raise self._in_use("update")
+    self._busy = True
+    try:
+        if self._batch is not None:
+            self._check_single("update")
+        w = 1.0 if type(weight) is float and weight == 1.0 else self._weight(weight)
+        lam = self._lam_fixed if forgetting is None else self._lam_step(forgetting)
+        a = self._step
+        S = self._S
+        if S is not a.step_S:
+            self._find_step(S)
+        if a.step_ep is not None:
+            # the narrow step entry (_kernels.recursions._step): two arrays to unbox, not eleven
+            R = a.R
+            if type(phi) is np.ndarray and phi.dtype is F64 and phi.shape == a.nshape:
+                a.Rphi[...] = phi
+            else:
+                a.Rphi[...] = self._phi(phi)
+            if self._single and (type(y) is float or type(y) is np.float64):
+                R[a.iy] = y
+            else:
+                a.Ry[...] = self._y(y)
+            if lam != a.Rlam:
+                R[a.ilam] = a.Rlam = lam
+            if w != a.Rw:
+                R[a.iw] = a.Rw = w
+            code = a.step_ep(S, a.W, self._ntag, self._ptag)
+            e = R.item(a.ie)  # a Python float
+            if e != e and R[a.isk]:  # a skipped sample (its error is NaN)
+                R[a.isk] = 0.0
+                return self._skipped_step(a.Rphi, a.Ry, a.RE, code)
+            self.n_updates += 1
+            if code != -1:  # the step kernels are RLS's: no window re-solves
+                self._code_warnings(code, None)
+            return e if self._single else a.RE.copy()
+        # One step is a run of length 1 through the compiled ``run`` numba already has
+        # for these argument types (those run() passes): nothing more to compile, and
+        # bit for bit the arithmetic of run().
         if type(phi) is np.ndarray and phi.dtype is F64 and phi.shape == a.nshape:
-            a.Rphi[...] = phi
+            a.phi1[...] = phi
         else:
-            a.Rphi[...] = self._phi(phi)
+            a.phi1[...] = self._phi(phi)
         if self._single and (type(y) is float or type(y) is np.float64):
-            R[a.iy] = y
+            a.y[0, 0] = y
         else:
-            a.Ry[...] = self._y(y)
-        if lam != a.Rlam:
-            R[a.ilam] = a.Rlam = lam
-        if w != a.Rw:
-            R[a.iw] = a.Rw = w
-        code = a.step_ep(S, a.W, self._ntag, self._ptag)
-        e = R.item(a.ie)  # a Python float
-        if e != e and R[a.isk]:  # a skipped sample (its error is NaN)
-            R[a.isk] = 0.0
-            return self._skipped_step(a.Rphi, a.Ry, a.RE, code)
+            a.y[0] = self._y(y)
+        if lam != a.lam_now:
+            a.lw[0] = a.lam_now = lam
+        if w != a.w_now:
+            a.lw[1] = a.w_now = w
+        call = a.call
+        if call.S is not S or call.opt is not self._opt or call.mat is not self._mat:
+            args = RunArgs(S, a.Phi, a.Y, a.lam, a.w, a.Th, a.E, a.skipped, a.Lk, None,
+                           self._opt, self._mat, self._ntag, self._ptag)
+            call = a.call = RunCall(S, self._opt, self._mat, tuple(args))
+            a.D = self._ud_views(S)[1] if self._rebuilds else None
+        if self._update_ep is not None:
+            code = self._update_ep(*call.args)
+        else:
+            code = self._kern.run(*call.args)
+            self._update_ep = _step.entry_point(self._kern.run, call.args)
+        e = a.E.item(0)  # a Python float
+        if e != e and a.skipped[0]:  # a skipped sample (its error is NaN)
+            a.skipped[0] = False
+            return self._skipped_step(a.phi[0], a.y[0], a.E[0], code)
         self.n_updates += 1
-        if code != -1:  # the step kernels are RLS's: no window re-solves
-            self._code_warnings(code, None)
-        return e if self._single else a.RE.copy()
-    # One step is a run of length 1 through the compiled ``run`` numba already has
-    # for these argument types (those run() passes): nothing more to compile, and
-    # bit for bit the arithmetic of run().
-    if type(phi) is np.ndarray and phi.dtype is F64 and phi.shape == a.nshape:
-        a.phi1[...] = phi
-    else:
-        a.phi1[...] = self._phi(phi)
-    if self._single and (type(y) is float or type(y) is np.float64):
-        a.y[0, 0] = y
-    else:
-        a.y[0] = self._y(y)
-    if lam != a.lam_now:
-        a.lw[0] = a.lam_now = lam
-    if w != a.w_now:
-        a.lw[1] = a.w_now = w
-    call = a.call
-    if call.S is not S or call.opt is not self._opt or call.mat is not self._mat:
-        args = RunArgs(S, a.Phi, a.Y, a.lam, a.w, a.Th, a.E, a.skipped, a.Lk, None,
-                       self._opt, self._mat, self._ntag, self._ptag)
-        call = a.call = RunCall(S, self._opt, self._mat, tuple(args))
-        a.D = self._ud_views(S)[1] if self._rebuilds else None
-    if self._update_ep is not None:
-        code = self._update_ep(*call.args)
-    else:
-        code = self._kern.run(*call.args)
-        self._update_ep = _step.entry_point(self._kern.run, call.args)
-    e = a.E.item(0)  # a Python float
-    if e != e and a.skipped[0]:  # a skipped sample (its error is NaN)
-        a.skipped[0] = False
-        return self._skipped_step(a.phi[0], a.y[0], a.E[0], code)
-    self.n_updates += 1
-    if code != -1 or self._rebuilds:
-        self._code_warnings(code, a.D)
-    return e if self._single else a.E[0].copy()
+        if code != -1 or self._rebuilds:
+            self._code_warnings(code, a.D)
+        return e if self._single else a.E[0].copy()
+    finally:
+        self._busy = False
 
 
 def compile_update(self) -> bool:

@@ -77,12 +77,14 @@ def _pandas_partitions(df, group, n_parts):
     import pandas as pd
 
     from .._kernels.layers._fleet import scan_runs
+    from .._kernels.recursions._parallel import parallel_guard
     gv = _group_values(df, group)
     N = gv.shape[0]
     starts = np.empty(N + 1, dtype=np.int64)
     if gv.dtype.kind in "iuM":  # one compiled pass: sorted labels need no hashing
-        m, increasing, _, _ = scan_runs(gv.view(np.int64) if gv.dtype.kind == "M" else gv,
-                                        np.empty(1), False, starts)
+        with parallel_guard():  # a parallel kernel (the workqueue layer: one at a time)
+            m, increasing, _, _ = scan_runs(gv.view(np.int64) if gv.dtype.kind == "M" else gv,
+                                            np.empty(1), False, starts)
         starts = starts[:m]
     else:
         increasing = False

@@ -14,6 +14,7 @@ import uuid
 
 import numpy as np
 
+from .._kernels.recursions._parallel import parallel_guard
 from ._changes import _statistics
 from ._inputs import _time_key
 from ._layout import _check_lengths, _layout, _raise_nonfinite, _regression_rows
@@ -27,12 +28,13 @@ def _identify_partition(part, *, group, y, phi, model, time, est, names, alpha_a
     t_key, t_missing = _time_key(part, time, group, est.nan_policy)
     if t_missing is not None and model is not None:  # the model sees only timed rows
         part, t_key, t_missing = part[~t_missing], t_key[~t_missing], None
-    idx, offsets, uniq, t = _layout(part, group, t_key, order_col)
-    Phi, Y, pos, row_t, offsets = _regression_rows(part, idx, offsets, uniq, t, t_missing,
-                                                   y=y, phi=phi, model=model, names=names)
+    with parallel_guard():  # parallel kernels: under the workqueue layer one at a time
+        idx, offsets, uniq, t = _layout(part, group, t_key, order_col)
+        Phi, Y, pos, row_t, offsets = _regression_rows(part, idx, offsets, uniq, t, t_missing,
+                                                       y=y, phi=phi, model=model, names=names)
     _check_lengths(offsets, uniq, len(names))
     _limit_threads()
-    with _KERNEL_LOCK:
+    with _KERNEL_LOCK, parallel_guard():
         try:
             res = est.run_segments(Phi, Y, offsets, store=tracks is not None)
         except ValueError:

@@ -17,15 +17,45 @@ cache stamp covers ``run``'s module too (``__adaptid_sources__``, read by
 ``toolchain/_cache.py``).
 """
 
+import threading
 import types
+from contextlib import nullcontext
 
+import numba
 from numba import prange
 
 from ..._config import NJIT_PARALLEL, njit
 from ._bierman import _segment_start
 from ._rollstats import sub
 
-__all__ = ["batched", "segments"]
+__all__ = ["batched", "segments", "parallel_guard"]
+
+#: held around every call of a parallel kernel when numba's threading layer is
+#: "workqueue": that layer is not thread-safe and aborts the whole process
+#: ("Concurrent access has been detected") when two Python threads enter
+#: parallel code at once (NUMBA_THREADING_LAYER=workqueue, or the default
+#: choice when neither TBB nor OpenMP is available)
+_SERIAL = threading.RLock()  # re-entrant: the fleet holds it around run_segments
+_FREE = nullcontext()
+#: the layer in use, once numba has chosen it (at the first parallel call)
+_LAYER = []
+
+
+def parallel_guard():
+    """The context around a call of a parallel kernel (``run_batched``,
+    ``run_segments``): the module lock ``_SERIAL`` under the workqueue layer
+    (calls from several threads wait for each other instead of aborting the
+    process), no lock under the thread-safe layers (TBB, OpenMP). Until the
+    first parallel call has fixed the layer, calls are serialised too."""
+    if _LAYER:
+        return _SERIAL if _LAYER[0] == "workqueue" else _FREE
+    if str(numba.config.THREADING_LAYER).lower() == "workqueue":
+        return _SERIAL
+    try:
+        _LAYER.append(numba.threading_layer())
+    except ValueError:  # no parallel kernel has run yet: the layer is not chosen
+        return _SERIAL
+    return parallel_guard()
 
 
 def _batched_stats(S, Phi, Y, lam, w, Th, E, skipped, Lk, St, opt, mat, codes, ntag, ptag):
