@@ -91,7 +91,11 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
     options = {k: v for k, v in dict(forgetting=forgetting, window=window,
                                      process_cov=process_cov, noise_var=noise_var,
                                      P0=P0, step=step, eps=eps).items() if v is not None}
-    source = read_frame(data) if is_single_file(data) else data
+    if is_single_file(data):
+        source = read_frame(data)
+        _check_empty_labels(source, group, data)
+    else:
+        source = data
     if structure is not None:
         from ._fleetmodel import ModelRegressors, fit_devices
 
@@ -108,6 +112,22 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
                     alpha=alpha, change_test=change_test, multiple=multiple,
                     npartitions=npartitions,
                     progress=not quiet, **options)
+
+
+def _check_empty_labels(frame, group, data):
+    """A CSV's empty device id is read as the text '' (not as a missing value):
+    refused as :func:`adaptid.fleet.identify` refuses a missing label."""
+    from ._errors import CLIError
+    if not isinstance(group, str) or group not in frame.columns:
+        return  # identify names the missing column
+    col = frame[group]
+    if col.dtype.kind != "O" and str(col.dtype) not in ("string", "str"):
+        return
+    blank = col.astype(str).str.strip().eq("") & col.notna()
+    if blank.any():
+        row = int(blank.to_numpy().argmax())
+        raise CLIError(f"--group {group}: an empty device id in {data} (data row {row + 1}); "
+                       "every row needs a label")
 
 
 def summary_text(result, *, max_rows=10) -> str:
@@ -154,6 +174,9 @@ def input_files(data) -> list:
 def check_outputs(data, output=None, tracks=None) -> None:
     """Before any computation: outputs writable, of a known type, and not an input."""
     from ._errors import CLIError
+    p = os.fspath(data)
+    if _glob.has_magic(p) and not _glob.glob(p, recursive=True):
+        raise CLIError(f"no files match {p}")
     inputs = input_files(data)
     if output is not None:
         check_writable(output, what="--out")
@@ -171,6 +194,12 @@ def check_outputs(data, output=None, tracks=None) -> None:
         for q in roots:
             if os.path.exists(t) and os.path.samefile(t, q):
                 raise CLIError(f"--tracks {t} is the input {q}; choose another folder")
+        if os.path.isdir(os.fspath(data)):
+            root = os.path.realpath(os.fspath(data))
+            if os.path.commonpath([root, os.path.realpath(t)]) == root:
+                raise CLIError(f"--tracks {t} is inside the input folder {os.fspath(data)}: "
+                               "the next run would read the tracks as data; choose a folder "
+                               "outside it")
 
 
 def write_result(result, path) -> None:

@@ -15,7 +15,8 @@ from ..estimators._factory import METHODS
 from ._changes import _CHANGE_TESTS, _MULTIPLE, _PVALUE_TESTS, _bde_a, _fleet_verdict
 from ._graph import (_close_client, _compute, _model_names, _open_client, _partitioned,
                      _result_meta)
-from ._inputs import _as_frame, _check_columns, _need
+from ._inputs import (_as_frame, _check_columns, _check_label_texts, _check_tracks,
+                      _group_values, _need)
 from ._partition import _identify_partition
 
 __all__ = ["identify"]
@@ -242,6 +243,10 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     alpha = check_scalar(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
     kind, frame = _as_frame(data)
     phi, names = _check_columns(frame, kind, group=group, y=y, phi=phi, model=model, time=time)
+    _check_tracks(data, tracks)
+    if kind == "pandas" and _group_values(frame, group).dtype.kind == "O":
+        import pandas as pd
+        _check_label_texts(pd.unique(_group_values(frame, group)))
     if npartitions is not None:
         npartitions = check_int(npartitions, "npartitions", low=1)
     if burn_in is not None:
@@ -273,6 +278,7 @@ def identify(data, *, group, y, phi=None, model=None, method="rls", time=None, c
     except TypeError:  # pragma: no cover - unorderable group labels
         pass
     out.index.name = group
+    _check_label_texts(out.index.to_numpy(), " (in two partitions)")
     if change_test in _PVALUE_TESTS:
         _fleet_verdict(out, alpha, multiple)
     return out

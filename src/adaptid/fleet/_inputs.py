@@ -7,6 +7,7 @@ numbers as float64, the time as a sortable key, group labels for messages.
 
 from __future__ import annotations
 
+import glob
 import os
 
 import numpy as np
@@ -23,17 +24,30 @@ def _need(module):
                           "pip install 'adaptid[dask]'") from err
 
 
+def _data_paths(data):
+    """The paths of ``data`` (a path, glob or list of them) as strings, or None."""
+    if isinstance(data, (str, os.PathLike)):
+        return [os.fspath(data)]
+    if isinstance(data, (list, tuple)) and data and \
+            all(isinstance(d, (str, os.PathLike)) for d in data):
+        return [os.fspath(d) for d in data]
+    return None
+
+
 def _as_frame(data):
     """(kind, frame): a pandas DataFrame, a dask DataFrame, or Parquet read lazily."""
     import pandas as pd
     if isinstance(data, pd.DataFrame):
         return "pandas", data
-    if isinstance(data, (str, os.PathLike)) or (
-            isinstance(data, (list, tuple)) and data and
-            all(isinstance(d, (str, os.PathLike)) for d in data)):
+    paths = _data_paths(data)
+    if paths is not None:
+        for p in paths:  # else dask reads an empty frame: "group must be a column (columns: )"
+            if glob.has_magic(p) and not glob.glob(p, recursive=True):
+                raise param_error("data", "a path or glob that names Parquet files",
+                                  f"<no files match {p!r}>")
         dd = _need("dask.dataframe")
-        paths = os.fspath(data) if isinstance(data, os.PathLike) else data
-        return "dask", dd.read_parquet(paths)
+        return "dask", dd.read_parquet(paths[0] if isinstance(data, (str, os.PathLike))
+                                       else paths)
     dd = _need("dask.dataframe")
     if isinstance(data, dd.DataFrame):
         return "dask", data
@@ -71,6 +85,45 @@ def _check_column(frame, name, arg, *, allow_index=False):
         return
     cols = ", ".join(map(str, list(frame.columns)[:12]))
     raise param_error(arg, f"a column of data (columns: {cols})", name)
+
+
+def _check_tracks(data, tracks):
+    """``tracks`` must not lie inside a folder of the input (nor be it): the next run
+    over that folder would read the per-sample tracks as data. For a glob, its
+    fixed leading folder counts when the pattern is recursive (``**``)."""
+    paths = _data_paths(data)
+    if tracks is None or paths is None:
+        return
+    t = os.path.realpath(os.fspath(tracks))
+    for p in paths:
+        if glob.has_magic(p):
+            if "**" not in p:
+                continue
+            p = p[:min(p.index(c) for c in "*?[" if c in p)]
+            p = p if p.endswith(os.sep) else os.path.dirname(p)
+            p = p or os.curdir
+        if not os.path.isdir(p):
+            continue
+        root = os.path.realpath(p)
+        if os.path.commonpath([root, t]) == root:
+            raise param_error("tracks", "a folder outside the input data (the next run "
+                              "over the input would read the tracks as data)",
+                              f"<{os.fspath(tracks)!r} inside the input folder {p!r}>")
+
+
+def _check_label_texts(labels, where=""):
+    """Distinct group labels must have distinct texts: ``1`` and ``"1"`` would share
+    one tracks partition (``device=1``) and one name in a CSV of the results."""
+    if getattr(labels, "dtype", None) is not None and labels.dtype.kind != "O":
+        return  # one type: distinct values print differently
+    seen = {}
+    for v in labels:
+        key = str(v.item() if isinstance(v, np.generic) else v)
+        other = seen.setdefault(key, v)
+        if other is not v:
+            raise param_error("group", "labels whose texts differ (they name the tracks "
+                              "partitions and the result rows)",
+                              f"<{_label(other)} and {_label(v)}{where}>")
 
 
 def _group_values(part, group):

@@ -16,7 +16,7 @@ import numpy as np
 
 from .._kernels.recursions._parallel import parallel_guard
 from ._changes import _statistics
-from ._inputs import _time_key
+from ._inputs import _check_label_texts, _time_key
 from ._layout import _check_lengths, _layout, _raise_nonfinite, _regression_rows
 
 _KERNEL_LOCK = threading.Lock()
@@ -30,6 +30,7 @@ def _identify_partition(part, *, group, y, phi, model, time, est, names, alpha_a
         part, t_key, t_missing = part[~t_missing], t_key[~t_missing], None
     with parallel_guard():  # parallel kernels: under the workqueue layer one at a time
         idx, offsets, uniq, t = _layout(part, group, t_key, order_col)
+        _check_label_texts(uniq)  # before any tracks are written
         Phi, Y, pos, row_t, offsets = _regression_rows(part, idx, offsets, uniq, t, t_missing,
                                                        y=y, phi=phi, model=model, names=names)
     _check_lengths(offsets, uniq, len(names))
