@@ -109,6 +109,7 @@ def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
         th[i] = S[i]
     mu = opt[1]
     bias = opt[2]
+    low = bias < TINY
     e = small_scratch(p)
     store = Th.shape[0] == Phi.shape[0]
     bad = -1
@@ -122,7 +123,9 @@ def _lms_stream(S, Phi, Y, w, Th, E, skipped, opt, NP, p, norm):
         # no φᵀφ (n more products per sample).
         if norm:
             q = _dot(bias, 1.0, Phi, k, th, 0, 0, NP, True)
-            ok = (q - q == 0.0) & (q >= TINY)
+            ok = q - q == 0.0
+            if low:  # loop-invariant: only with ε < TINY can ε + φᵀφ fall below TINY
+                ok &= q >= TINY
         else:
             q = 0.0
             ok = True

@@ -34,8 +34,10 @@ as loops.
 Monitoring: the code is the first sample after which a diagonal entry of
 P = S Sᵀ left (0, ``opt[0]``) (zero: S lost rank; NaN/inf: overflow), or
 whose denominator d = r + φᵀPφ is not finite (data so large that φᵀPφ
-overflows: the gain h/d is then 0 and θ would stay put silently; one compare
-per sample), or −1.
+overflows: the gain h/d is then 0 and θ would stay put silently), or −1.
+The test of d costs nothing per sample: d = inf gives r/d = 0, which drops
+the lower bound lo below ``FLOOR`` (see below), so the rule runs at that
+sample and d is tested with it.
 The rule itself — :math:`\mathrm{diag}(SS^T)_i = \sum_j S_{ij}^2` summed in
 order, compared with 0 and ``opt[0]`` (:func:`_diag_inside`) — costs a pass
 over S; it is evaluated only when cheap bounds cannot decide. In real
@@ -206,7 +208,7 @@ def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
     N = Phi.shape[0]
     store = Th.shape[0] == N
     fresh = False  # f, h (and q = fᵀf) belong to Phi[k]
-    q, bad = 0.0, -1
+    q, bad, d = 0.0, -1, 0.0  # d: the last gain's denominator (finite before any)
     tau = SLACK * (NP + 16)
     lo, hi = 0.0, np.inf  # bounds on diag(F Fᵀ) (see the module docstring): none yet
     for k in range(N):
@@ -228,8 +230,6 @@ def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
                     f[i] = 0.0
                 q = _sweep(F, f, h, a, 1.0, phi, NP)
             s, rd, d = _gain(q, h, a, theta, e, lam[k], wk, NP, p)
-            if not d < np.inf and bad < 0:  # d = r + φᵀPφ overflowed: no step was taken
-                bad = k
             q = _sweep(F, f, h, a, s, Phi[k + 1] if k + 1 < N else phi, NP)
             fresh = True
             lo *= (rd - tau) * (1.0 - tau) / lam[k]
@@ -249,6 +249,9 @@ def _potter_stream(S, Phi, Y, lam, w, Th, E, skipped, dthr, NP, p):
             fresh = False
         if check:
             inside, lo, hi = _exact(F, rn, dthr, tau, NP)
+            # d = r + φᵀPφ overflowed (inf or NaN: the step h/d was 0): here, not on every
+            # sample, since d = inf makes r/d = 0 and so lo ≤ 0, which always sets check
+            inside &= d < np.inf
         if bad < 0 and not inside:
             bad = k
         if store:
