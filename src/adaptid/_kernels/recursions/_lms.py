@@ -17,9 +17,13 @@ State ``S = [ theta (n·p, row-major (n, p)) ]``: no covariance.
 sample after which θ is no longer finite (the gradient diverged: step too
 large: the first sample whose a-priori error is not finite, or the last
 sample if only the final θ is not), or the first sample of finite data whose
-NLMS normalisation ε + φᵀφ overflowed or underflowed (below the smallest
-normal float with φ ≠ 0: data of size 1e300 or 1e-160; the step is then 0 or
-meaningless), or −1. Per sample (MATLAB ``recursiveLS``, EstimationMethod
+NLMS normalisation ε + φᵀφ overflowed or fell below the smallest normal
+float with φ ≠ 0 (data of size 1e300, or 1e-160 and 1e-300 with ε = 0: the
+step is then 0 or meaningless), or −1. The overflow is found in the exact
+re-check of a non-finite sum (off the fast path); the underflow test runs
+only when ε < TINY (a loop-invariant branch: the default ε = eps(1) bounds
+ε + φᵀφ below). Per sample (MATLAB
+``recursiveLS``, EstimationMethod
 ``Gradient`` / ``NormalizedGradient``; padasip ``FilterLMS`` / ``FilterNLMS``):
 
 .. math::
@@ -81,11 +85,12 @@ def _dot(c, sign, A, k, b, off, stride, NP, square):
     return s
 
 
-@njit(**NJIT_INLINE)
+@njit(**NJIT)  # a call, not inlined: the cold path stays out of the loop's code
 def _lost_norm(q, Phi, k, NP):
     """Whether NLMS's ε + φᵀφ of finite data lost the sample: overflowed (the
-    step h/q is then 0) or fell below the smallest normal float with φ ≠ 0
-    (underflowed: the step is 0 or wildly rounded). φ = 0 with ε = 0 is not."""
+    step μw/q is then 0) or fell below the smallest normal float with φ ≠ 0
+    (ε < TINY only: the step is then 0 or wildly rounded). φ = 0 with ε = 0 is
+    not. Called only off the fast path."""
     if not q < np.inf:
         return True
     if q >= TINY:
