@@ -110,6 +110,9 @@ _WORKQUEUE = textwrap.dedent("""
     offsets = np.arange(0, 3201, 400)
     want = adaptid.RLS(3).run_segments(flat, flat_y, offsets).theta
     assert numba.threading_layer() == "workqueue", numba.threading_layer()
+    fast_want = adaptid.FastRLS(3, track_theta=False)
+    fast_want.run_fir(Phi[:, :, 0], y)
+    fast_want = fast_want.theta
     bad = []
     def work():
         for _ in range(25):
@@ -118,6 +121,10 @@ _WORKQUEUE = textwrap.dedent("""
             got = adaptid.RLS(3).run_segments(flat, flat_y, offsets).theta
             if not (np.array_equal(est.theta, want) and np.array_equal(got, want)):
                 bad.append(1)
+            fast = adaptid.FastRLS(3, track_theta=False)
+            fast.run_fir(Phi[:, :, 0], y)  # FastRLS's own parallel kernel
+            if not np.array_equal(fast.theta, fast_want):
+                bad.append(2)
     ts = [threading.Thread(target=work) for _ in range(4)]
     [t.start() for t in ts]; [t.join() for t in ts]
     print("ok", len(bad))
@@ -133,3 +140,28 @@ def test_workqueue_layer_with_threads_does_not_abort():
     # before: SIGABRT (-6) with "Concurrent access has been detected"
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.split() == ["ok", "0"]
+
+
+def test_fastrls_concurrent_calls_are_refused():
+    """FastRLS (its own class, not the engine's) detects concurrent use the same way."""
+    rng = np.random.default_rng(1)
+    u = rng.standard_normal(3_000_000)
+    y = np.convolve(u, [0.5, -0.3, 0.2])[:u.shape[0]]
+    est = adaptid.FastRLS(3, forgetting=0.999, track_theta=False)
+    est.run_fir(u[:10], y[:10])
+    ref = adaptid.FastRLS(3, forgetting=0.999, track_theta=False)
+    ref.run_fir(u[:10], y[:10])
+    ref.run_fir(u[10:], y[10:])
+    t = _while_busy(est, lambda: est.run_fir(u[10:], y[10:]))
+    caught = []
+    while t.is_alive() and len(caught) < 2:
+        for call in (lambda: est.run_fir(u[:5], y[:5]),
+                     lambda: est.run_fir(u[None, :5], y[None, :5])):
+            try:
+                call()
+            except RuntimeError as exc:
+                caught.append(str(exc))
+    t.join()
+    assert len(caught) >= 2, "the run ended before the concurrent calls: make N larger"
+    assert all("FastRLS." in m and "not thread-safe" in m for m in caught)
+    assert np.array_equal(est.theta, ref.theta) and est.n_updates == ref.n_updates

@@ -14,9 +14,11 @@ import types
 import numpy as np
 
 from .._exceptions import StateFileError
+from .._kernels.recursions._parallel import parallel_guard
 from .._validation import as_float_array, check_choice, check_int, check_scalar, param_error
 from . import _statefile
 from ._fastlayout import METHODS, layout as _layout
+from ._inputs import in_use
 from ._trajectory import Trajectory
 
 __all__ = ["FastRLS"]
@@ -131,6 +133,9 @@ class FastRLS:
     array([ 0.5, -0.3,  0.2])
     """
 
+    #: True while a run of the kernels is under way (:func:`._inputs.in_use`: an estimator
+    #: is not thread-safe; a second call meanwhile raises RuntimeError)
+    _busy = False
     spec = types.SimpleNamespace(method="fastrls", covariance=False,
                                  options=("forgetting", "delta", "method", "nan_policy",
                                           "track_theta"))
@@ -250,7 +255,8 @@ class FastRLS:
                               "<a non-finite value>")
         if good:
             _check_line(phi[None, :], np.ones(1, bool), self.delay_line, "phi")
-        traj = self._run(np.array([phi[0] if good else np.nan]), np.array([yv]), True)
+        traj = self._run(np.array([phi[0] if good else np.nan]), np.array([yv]), True,
+                         "update")
         return float(traj.error[0])
 
     def predict(self, phi):
@@ -303,7 +309,7 @@ class FastRLS:
         if u.ndim == 2:
             return self._run_batched(u, y, store_theta)
         self._check_single("run_fir")
-        return self._run(u, y, store_theta)
+        return self._run(u, y, store_theta, "run_fir")
 
     def run_batched(self, Phi, y, *, store_theta=True) -> Trajectory:
         """B independent streams in one compiled, parallel call.
@@ -350,7 +356,16 @@ class FastRLS:
             K.lattice_run_batched(S, U, Y, opt, th0, Th, E, skipped, rescues)
         return run, run_batched
 
-    def _run(self, u, y, store_theta) -> Trajectory:
+    def _run(self, u, y, store_theta, what="run") -> Trajectory:
+        if self._busy:
+            raise in_use(self, what)
+        self._busy = True
+        try:
+            return self._run_one(u, y, store_theta)
+        finally:
+            self._busy = False
+
+    def _run_one(self, u, y, store_theta) -> Trajectory:
         run, _ = self._kernels()
         N, n = u.shape[0], self.n_taps
         S = self._S.copy()  # the state changes only if the kernel returns
@@ -375,6 +390,15 @@ class FastRLS:
         return self._S.copy()
 
     def _run_batched(self, u, y, store_theta) -> Trajectory:
+        if self._busy:
+            raise in_use(self, "run_batched")
+        self._busy = True
+        try:
+            return self._run_many(u, y, store_theta)
+        finally:
+            self._busy = False
+
+    def _run_many(self, u, y, store_theta) -> Trajectory:
         _, run_batched = self._kernels()
         B, N = u.shape
         S = self._start_states(B)
@@ -382,8 +406,9 @@ class FastRLS:
         E = np.empty((B, N))
         skipped = np.zeros((B, N), dtype=np.bool_)
         r = np.zeros(B, dtype=np.int64)
-        run_batched(S, np.ascontiguousarray(u), np.ascontiguousarray(y), self._opt(), Th, E,
-                    skipped, r)
+        with parallel_guard():  # the workqueue layer: one parallel call at a time
+            run_batched(S, np.ascontiguousarray(u), np.ascontiguousarray(y), self._opt(), Th,
+                        E, skipped, r)
         if self._batch is None:
             self._rescues = np.full(B, self._rescues, dtype=np.int64)
         self._S, self._batch = S, B
