@@ -372,8 +372,12 @@ class FastRLS:
         Th = np.empty((N if store_theta and self.track_theta else 0, n))
         E = np.empty(N)
         skipped = np.zeros(N, dtype=np.bool_)
-        r = run(S, np.ascontiguousarray(u), np.ascontiguousarray(y), self._opt(), Th, E,
-                skipped)
+        try:
+            r = run(S, np.ascontiguousarray(u), np.ascontiguousarray(y), self._opt(), Th, E,
+                    skipped)
+        except ZeroDivisionError:  # the lattice's energies overflowed to inf (then inf/inf)
+            raise _overflow_error() from None
+        _warn_overflow(E, skipped)
         self._S = S
         self._rescues += r
         k = int(np.count_nonzero(skipped))
@@ -407,8 +411,12 @@ class FastRLS:
         skipped = np.zeros((B, N), dtype=np.bool_)
         r = np.zeros(B, dtype=np.int64)
         with parallel_guard():  # the workqueue layer: one parallel call at a time
-            run_batched(S, np.ascontiguousarray(u), np.ascontiguousarray(y), self._opt(), Th,
-                        E, skipped, r)
+            try:
+                run_batched(S, np.ascontiguousarray(u), np.ascontiguousarray(y), self._opt(),
+                            Th, E, skipped, r)
+            except ZeroDivisionError:
+                raise _overflow_error() from None
+        _warn_overflow(E, skipped)
         if self._batch is None:
             self._rescues = np.full(B, self._rescues, dtype=np.int64)
         self._S, self._batch = S, B
@@ -517,6 +525,26 @@ class FastRLS:
 
     def __setstate__(self, state):
         self.__dict__.update(type(self).from_state(state).__dict__)
+
+
+def _overflow_error():
+    return param_error("u and y", "data whose squares stay within the float range (the "
+                       "filter's energies are sums of squares; scale the data)",
+                       "<energies that overflowed to inf>")
+
+
+def _warn_overflow(E, skipped):
+    """A non-finite a-priori error of a sample that was used: the data overflowed."""
+    bad = ~np.isfinite(E) & ~skipped
+    if bad.any():
+        import warnings
+
+        from .._exceptions import DivergenceWarning
+
+        k = int(np.argmax(bad.reshape(-1)))
+        warnings.warn(f"FastRLS: the a-priori error overflowed at sample {k} (flat index): "
+                      "data beyond about 1e150 make the filter's energies (sums of "
+                      "squares) infinite; scale the data", DivergenceWarning, stacklevel=4)
 
 
 def _check_line(Phi, good, line, name):
