@@ -18,7 +18,7 @@ from .._kernels.recursions._parallel import parallel_guard
 from .._validation import as_float_array, check_choice, check_int, check_scalar, param_error
 from . import _statefile
 from ._fastlayout import METHODS, layout as _layout
-from ._inputs import in_use
+from ._inputs import exclusive
 from ._trajectory import Trajectory
 
 __all__ = ["FastRLS"]
@@ -357,13 +357,8 @@ class FastRLS:
         return run, run_batched
 
     def _run(self, u, y, store_theta, what="run") -> Trajectory:
-        if self._busy:
-            raise in_use(self, what)
-        self._busy = True
-        try:
+        with exclusive(self, what):
             return self._run_one(u, y, store_theta)
-        finally:
-            self._busy = False
 
     def _run_one(self, u, y, store_theta) -> Trajectory:
         run, _ = self._kernels()
@@ -394,13 +389,8 @@ class FastRLS:
         return self._S.copy()
 
     def _run_batched(self, u, y, store_theta) -> Trajectory:
-        if self._busy:
-            raise in_use(self, "run_batched")
-        self._busy = True
-        try:
+        with exclusive(self, "run_batched"):
             return self._run_many(u, y, store_theta)
-        finally:
-            self._busy = False
 
     def _run_many(self, u, y, store_theta) -> Trajectory:
         _, run_batched = self._kernels()

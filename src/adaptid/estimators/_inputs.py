@@ -13,7 +13,7 @@ import numpy as np
 from .._validation import as_float_array, check_scalar, param_error
 
 __all__ = ["NAN_POLICIES", "F64", "labels", "strided", "read_only", "check_phi", "check_y",
-           "check_weight", "nonfinite_step", "run_arrays", "per_sample", "in_use"]
+           "check_weight", "nonfinite_step", "run_arrays", "per_sample", "in_use", "exclusive"]
 
 NAN_POLICIES = ("raise", "skip")
 #: numpy's float64 dtype: ``update`` takes a float64 φ as it is when its dtype is this
@@ -104,6 +104,27 @@ def check_weight(weight):
         return 1.0
     w = check_scalar(weight, "weight", low=0.0)
     return 0.0 if w < TINY else w
+
+
+class exclusive:
+    """``with exclusive(est, "run"):`` — the in-use flag of :func:`in_use` around a call.
+
+    ``update`` sets the flag inline instead: a context manager costs about a
+    quarter of an ``update`` at small n.
+    """
+
+    __slots__ = ("est", "what")
+
+    def __init__(self, est, what):
+        self.est, self.what = est, what
+
+    def __enter__(self):
+        if self.est._busy:
+            raise in_use(self.est, self.what)
+        self.est._busy = True
+
+    def __exit__(self, *exc):
+        self.est._busy = False
 
 
 def in_use(self, what):

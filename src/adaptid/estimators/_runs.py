@@ -20,6 +20,7 @@ from .. import _kernels
 from .._kernels.recursions._parallel import parallel_guard
 from .._validation import param_error
 from . import _inputs
+from ._inputs import exclusive
 from ._trajectory import Trajectory
 from ._windowstats import check_stats, finish_stats, stats_rows
 
@@ -66,10 +67,7 @@ def run(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
         running (another thread): an estimator is not thread-safe; give each
         thread its own (``est.copy()``).
     """
-    if self._busy:
-        raise self._in_use("run")
-    self._busy = True
-    try:
+    with exclusive(self, "run"):
         self._check_single("run")
         labels = _inputs.labels(Phi, y)
         want = check_stats(self, stats, has_constant)
@@ -97,8 +95,6 @@ def run(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
         traj = self._finish(Th, E, skipped, store, code if self._rebuilds else 0,
                             Lk if self._reports else None, Lk)
         return replace(traj, **labels) if labels else traj
-    finally:
-        self._busy = False
 
 
 def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True, stats=False,
@@ -128,10 +124,7 @@ def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True, stat
         running (another thread): an estimator is not thread-safe; give each
         thread its own (``est.copy()``).
     """
-    if self._busy:
-        raise self._in_use("run_batched")
-    self._busy = True
-    try:
+    with exclusive(self, "run_batched"):
         want = check_stats(self, stats, has_constant)
         Phi, Y, w = self._run_arrays(Phi, y, weights, batched=True, precheck=False)
         shape_N = Phi.shape[:2]
@@ -161,8 +154,6 @@ def run_batched(self, Phi, y, *, weights=None, forgetting=None, store=True, stat
                             codes.sum() if self._rebuilds else 0,
                             Lk if self._reports else None, Lk)
         return replace(traj, stats=ws) if want else traj
-    finally:
-        self._busy = False
 
 
 def run_segments(self, Phi, y, offsets, *, weights=None, store=False, stats=False):

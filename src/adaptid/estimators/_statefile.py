@@ -516,6 +516,20 @@ class StateFileMethods:
     methods are the same for all of them.
     """
 
+    #: The ``format`` of this class's :meth:`get_state` dict.
+    _STATE_FORMAT = 1
+
+    @classmethod
+    def _check_state(cls, state) -> None:
+        """What every ``from_state`` checks first: a dict of this class, in its format."""
+        if not isinstance(state, dict):
+            raise param_error("state", "a dict from get_state()", state, exc=TypeError)
+        if state.get("estimator") != cls._kind:
+            raise param_error("state", f"the state of a {cls._kind}",
+                              f"<estimator {state.get('estimator')!r}>")
+        if state.get("format") != cls._STATE_FORMAT:
+            raise param_error("state['format']", f"{cls._STATE_FORMAT}", state.get("format"))
+
     def save_state(self, path):
         """Write the state to ``path`` (adaptid's versioned, checksummed ``.npz``; never pickle)."""
         save_state(self, path)

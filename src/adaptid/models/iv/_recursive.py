@@ -13,7 +13,6 @@ from ..streaming._arx import RecursiveARX, StreamResult
 
 __all__ = ["RecursiveIV", "RecursiveIVResult"]
 
-_STATE_FORMAT = 1
 #: |λ + φᵀPζ| at or below this fraction of λ + Σ|φᵢ(Pζ)ᵢ| is a singular IV update (skipped)
 _SINGULAR_RTOL = 1e-10
 _OK, _SIGN, _SINGULAR = 0, 1, 2
@@ -385,7 +384,7 @@ class RecursiveIV(StateFileMethods):
         o = {"na": self.na, "nb": list(self.nb), "nk": list(self.nk), "single": self._single,
              "forgetting": self.forgetting, "warmup": self.warmup, "dt": self.dt,
              "count": self._count, "flags": list(self._flags)}
-        return {"estimator": self._kind, "format": _STATE_FORMAT,
+        return {"estimator": self._kind, "format": self._STATE_FORMAT,
                 # the file container bounds each side of the own arrays by this
                 "n_params": max(self.n_params, self.na, self._Lu, self._m, self._acc.size),
                 "options": o, "inner": inner, "P": self._P.copy(), "P0": self.P0.copy(),
@@ -407,13 +406,7 @@ def _restore(cls, state):
     """:meth:`RecursiveIV.from_state`: check the dict, rebuild, put the arrays back."""
     from ...estimators._statefile import estimator_from_state
 
-    if not isinstance(state, dict):
-        raise param_error("state", "a dict from get_state()", state, exc=TypeError)
-    if state.get("estimator") != cls._kind:
-        raise param_error("state", f"the state of a {cls._kind}",
-                          f"<estimator {state.get('estimator')!r}>")
-    if state.get("format") != _STATE_FORMAT:
-        raise param_error("state['format']", f"{_STATE_FORMAT}", state.get("format"))
+    cls._check_state(state)
     try:
         o = dict(state["options"])
         inner = estimator_from_state(state["inner"])

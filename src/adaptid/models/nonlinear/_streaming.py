@@ -15,7 +15,6 @@ from ._results import term_name
 
 __all__ = ["RecursiveNARX", "parse_term"]
 
-_STATE_FORMAT = 1
 _STARTS = ("filled", "zero")
 _FACTOR = re.compile(r"(.+\(k(?:-\d+)?\))(?:\^(\d+))?\Z")
 
@@ -400,7 +399,7 @@ class RecursiveNARX(StateFileMethods):
                 "dt": self.dt, "output": self._o, "start": self.start, "count": self._count,
                 "outputs": [{"combos": c.tolist(), "theta": [float(v) for v in t],
                              "terms": list(n)} for c, t, n in self._outs]}
-        return {"estimator": self._kind, "format": _STATE_FORMAT,
+        return {"estimator": self._kind, "format": self._STATE_FORMAT,
                 "n_params": max(self.n_params, self.ylag, self._p, self._Lu, self._m, 1),
                 "options": opts, "inner": self._est.get_state(),
                 "ybuf": self._ybuf.copy(), "ubuf": self._ubuf.copy()}
@@ -410,13 +409,7 @@ class RecursiveNARX(StateFileMethods):
         """Rebuild from :meth:`get_state`'s dict (exact round trip)."""
         from ...estimators._statefile import estimator_from_state
 
-        if not isinstance(state, dict):
-            raise param_error("state", "a dict from get_state()", state, exc=TypeError)
-        if state.get("estimator") != cls._kind:
-            raise param_error("state", f"the state of a {cls._kind}",
-                              f"<estimator {state.get('estimator')!r}>")
-        if state.get("format") != _STATE_FORMAT:
-            raise param_error("state['format']", f"{_STATE_FORMAT}", state.get("format"))
+        cls._check_state(state)
         try:
             o = dict(state["options"])
             outs = [(np.asarray(d["combos"], dtype=np.intp).reshape(-1, o["degree"]),

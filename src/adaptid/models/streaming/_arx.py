@@ -14,7 +14,6 @@ __all__ = ["RecursiveARX", "RecursiveAR", "StreamResult"]
 #: MATLAB's estimation methods -> the core method of :func:`adaptid.estimator`
 _METHODS = {"forgetting": "rls", "kalman": "kalman", "ngradient": "nlms", "gradient": "lms"}
 _STARTS = ("zero", "filled")
-_STATE_FORMAT = 1
 
 
 @dataclass(frozen=True)
@@ -411,7 +410,7 @@ class RecursiveARX(StateFileMethods):
         buffers, the structure and the sample count (plain values, float64 arrays)."""
         return {
             "estimator": self._kind,
-            "format": _STATE_FORMAT,
+            "format": self._STATE_FORMAT,
             "n_params": max(self.n_params, self.na, self._Lu, self._m, 1),
             "options": self._options(),
             "inner": self._est.get_state(),
@@ -430,13 +429,7 @@ class RecursiveARX(StateFileMethods):
         """Rebuild from :meth:`get_state`'s dict (exact round trip)."""
         from ...estimators._statefile import estimator_from_state
 
-        if not isinstance(state, dict):
-            raise param_error("state", "a dict from get_state()", state, exc=TypeError)
-        if state.get("estimator") != cls._kind:
-            raise param_error("state", f"the state of a {cls._kind}",
-                              f"<estimator {state.get('estimator')!r}>")
-        if state.get("format") != _STATE_FORMAT:
-            raise param_error("state['format']", f"{_STATE_FORMAT}", state.get("format"))
+        cls._check_state(state)
         try:
             o = dict(state["options"])
             obj = cls._build(o)

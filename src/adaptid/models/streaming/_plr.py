@@ -22,7 +22,6 @@ from ._plr_state import _PACKED, _packed, restore
 
 __all__ = ["_PseudoLinearStream"]
 
-_STATE_FORMAT = 1
 #: the arrays of the recursion's state (attribute ``_<name>``), in the order the kernel takes
 _ARRAYS = ("theta", "U", "D", "vh", "Bphi", "By")
 
@@ -274,7 +273,7 @@ class _PseudoLinearStream(StateFileMethods):
         arrays = {k: (_packed(v) if k in _PACKED else v.reshape(1, -1).copy() if v.ndim == 1
                       else v.copy()) for k, v in arrays.items()}
         side = max([1] + [d for v in arrays.values() for d in v.shape])
-        return {"estimator": self._kind, "format": _STATE_FORMAT, "n_params": side,
+        return {"estimator": self._kind, "format": self._STATE_FORMAT, "n_params": side,
                 "options": o, "inner": self._est.get_state(), **arrays}
 
     @classmethod

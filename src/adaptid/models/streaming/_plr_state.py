@@ -29,13 +29,7 @@ def _header(cls, state):
     """The dict's kind and format, and its options, inner estimator and arrays."""
     from ...estimators._statefile import estimator_from_state
 
-    if not isinstance(state, dict):
-        raise param_error("state", "a dict from get_state()", state, exc=TypeError)
-    if state.get("estimator") != cls._kind:
-        raise param_error("state", f"the state of a {cls._kind}",
-                          f"<estimator {state.get('estimator')!r}>")
-    if state.get("format") != 1:
-        raise param_error("state['format']", "1", state.get("format"))
+    cls._check_state(state)
     try:
         o = dict(state["options"])
         inner = estimator_from_state(state["inner"])
