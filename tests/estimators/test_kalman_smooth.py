@@ -321,3 +321,17 @@ def test_refusals(data):
         _est(False).fit_variances(Phi, y, method="newton")
     with pytest.raises(ValueError, match="weights"):
         _est(False).smooth(Phi, y, weights=-1.0)
+
+
+def test_gemm_with_beta_zero_never_reads_out():
+    """The backward pass's work arrays come from ``np.empty``: with β = 0 the
+    product must overwrite them (0·NaN is NaN; CI's allocator gave NaN garbage)."""
+    from adaptid._kernels.recursions._smoother import _gemm
+    rng = np.random.default_rng(3)
+    A, B = rng.standard_normal((2, 4, 4))
+    out = np.full((4, 4), np.nan)
+    _gemm(A, True, B, False, 2.0, 0.0, out)
+    np.testing.assert_allclose(out, 2.0 * A.T @ B, rtol=1e-14, atol=1e-14)
+    out2 = np.ones((4, 4))
+    _gemm(A, False, B, True, 1.0, 1.0, out2)
+    np.testing.assert_allclose(out2, 1.0 + A @ B.T, rtol=1e-14, atol=1e-14)

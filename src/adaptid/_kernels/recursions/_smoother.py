@@ -52,7 +52,10 @@ _LOG2PI = math.log(2.0 * math.pi)
 
 @njit(**NJIT)
 def _gemm(A, ta, B, tb, alpha, beta, out):
-    """out ← β·out + α·op(A)·op(B) (n × n; op the transpose when ``ta``/``tb``)."""
+    """out ← β·out + α·op(A)·op(B) (n × n; op the transpose when ``ta``/``tb``).
+
+    With β = 0 ``out`` is written, never read: the work arrays come from
+    ``np.empty`` and 0·NaN would be NaN."""
     n = out.shape[0]
     for i in range(n):
         for j in range(n):
@@ -61,7 +64,10 @@ def _gemm(A, ta, B, tb, alpha, beta, out):
                 x = A[m, i] if ta else A[i, m]
                 y = B[j, m] if tb else B[m, j]
                 s += x * y
-            out[i, j] = beta * out[i, j] + alpha * s
+            if beta == 0.0:
+                out[i, j] = alpha * s
+            else:
+                out[i, j] = beta * out[i, j] + alpha * s
 
 
 @njit(**NJIT)
