@@ -449,4 +449,4 @@ def test_fleet_command(parquet_dir, small_ref, tmp_path):
 
 
 def test_public_index():
-    assert sorted(fleet.__all__) == ["identify", "lstsq"]
+    assert sorted(fleet.__all__) == ["fit_models", "identify", "lstsq"]  # fit_models: fleetb

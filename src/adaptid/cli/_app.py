@@ -425,13 +425,13 @@ def fleet(
     ar: Annotated[Optional[str], typer.Option("--ar", metavar="NA", help="AR model order.",
                                               rich_help_panel="Model")] = None,
     arma: Annotated[Optional[str], typer.Option("--arma", metavar="NA,NC", help="ARMA orders "
-                                                "(batch only).", rich_help_panel="Model")] = None,
+                                                "(as adaptid fit).", rich_help_panel="Model")] = None,
     armax: Annotated[Optional[str], typer.Option("--armax", metavar="NA,NB,NC,NK", help="ARMAX "
-                                                 "orders (batch only).", rich_help_panel="Model")] = None,
+                                                 "orders (as adaptid fit).", rich_help_panel="Model")] = None,
     oe: Annotated[Optional[str], typer.Option("--oe", metavar="NB,NF,NK", help="Output-error orders "
-                                              "(batch only).", rich_help_panel="Model")] = None,
+                                              "(as adaptid fit).", rich_help_panel="Model")] = None,
     bj: Annotated[Optional[str], typer.Option("--bj", metavar="NB,NC,ND,NF,NK", help="Box-Jenkins "
-                                              "orders (batch only).", rich_help_panel="Model")] = None,
+                                              "orders (as adaptid fit).", rich_help_panel="Model")] = None,
     dt: Annotated[Optional[float], typer.Option("--dt", metavar="SECONDS", help="Sample time of the "
                                                 "models (default 1).", rich_help_panel="Model")] = None,
     method: Annotated[Optional[str], typer.Option(

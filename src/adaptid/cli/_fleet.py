@@ -79,8 +79,11 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
         No progress bar.
     structure : adaptid.cli._problem.Structure, optional
         A model option (``--arx``, ``--oe``, …; see :mod:`adaptid.cli._fleetmodel`):
-        ``method="batch"`` fits the model object per device, a recursive
-        method runs :func:`adaptid.fleet.identify` on the model's regressors.
+        ``method="batch"`` fits the model object per device and a recursive
+        method runs the streaming object of ARMA/ARMAX/OE/BJ per device
+        (both by :func:`adaptid.fleet.fit_models`); ARX/FIR/AR with a
+        recursive method run :func:`adaptid.fleet.identify` on the model's
+        regressors.
 
     Returns
     -------
@@ -97,14 +100,16 @@ def fleet_command(data, group, y=None, phi=None, model=None, method="rls", time=
     else:
         source = data
     if structure is not None:
-        from ._fleetmodel import ModelRegressors, fit_devices
+        from ._fleetmodel import ModelRegressors, device_model, uses_fit_models
 
-        if method == "batch":
-            if not is_single_file(data):
-                import dask.dataframe as dd
+        if uses_fit_models(structure, method):   # a model object per device, on Dask
+            from adaptid.fleet import fit_models
 
-                source = dd.read_parquet(data).compute()
-            return fit_devices(source, group, structure, time=time)
+            return fit_models(source, device_model(structure, method, options, nan_policy),
+                              group=group, y=structure.y, u=structure.u, time=time,
+                              client=scheduler or None, tracks=tracks, alpha=alpha,
+                              change_test=change_test, multiple=multiple,
+                              npartitions=npartitions, progress=not quiet)
         model, y = ModelRegressors(structure.kind, structure.orders, structure.y, structure.u), None
     return identify(source, group=group, y=y, phi=_split_names(phi),
                     model=resolve_model(model), method=method, time=time,

@@ -1,15 +1,29 @@
 r"""``adaptid fleet`` with the model options of ``adaptid fit`` (``--arx``, ``--oe``, …).
 
-Without ``--method`` (or with ``--method batch``) every device's record is
-fitted by the model object's ``fit``, as ``adaptid fit`` does for one record
-(least squares for ARX/FIR/AR, prediction errors for ARMA/ARMAX/OE/BJ): one
-row per device with the model's θ, standard errors, σ̂², RMS residual and
-the number of samples. With a recursive ``--method`` (``rls``, ``window``,
-``kalman``, ``lms``, ``nlms``) the ARX/FIR/AR regressors of each device,
-in the model objects' sign convention and names, go to
-:func:`adaptid.fleet.identify` (:class:`ModelRegressors`), which runs the
-estimator over every device on Dask and adds its change test; the
-pseudo-linear models have no fixed regressors and are fitted in batch only.
+Every path runs on Dask, one task per partition of whole devices (each
+device's rows in ``--time`` order), and returns one row per device:
+
+* Without ``--method`` (or with ``--method batch``) each device's record is
+  fitted by the model object's ``fit`` (:func:`device_model`), as ``adaptid
+  fit`` does for one record: least squares for ARX/FIR/AR, prediction
+  errors for ARMA/ARMAX/OE/BJ; the columns are the model's θ (its names),
+  ``stderr_<name>``, ``n_samples``, ``n_skipped``, ``sigma2`` and ``rms``
+  (:func:`adaptid.fleet.fit_models`).
+* ``--arma``/``--armax``/``--oe``/``--bj`` with a recursive ``--method``
+  (``rls``, ``window``, ``kalman``, ``lms``, ``nlms``) run the streaming
+  object (:class:`adaptid.models.RecursiveARMAX` …, ``start="filled"``,
+  the estimator of ``--method`` and its options) over each device, as
+  ``adaptid fit`` runs it for one record (the numbers of ``fit_recursive``):
+  the same columns plus the change test (``change``, ``change_stat``,
+  ``change_pvalue``, ``change_at``) on the regression the recursion formed
+  (``--change-test a-priori``: on the stream's a-priori errors), and
+  ``--tracks`` written as the ARX path writes them
+  (:func:`adaptid.fleet.fit_models`). ``--nan skip`` is refused there: the
+  recursion needs a complete record.
+* ``--arx``/``--fir``/``--ar`` with a recursive ``--method``: the
+  regressors of each device, in the model objects' sign convention and
+  names, go to :func:`adaptid.fleet.identify` (:class:`ModelRegressors`),
+  which runs the estimator over every device and adds its change test.
 """
 
 from __future__ import annotations
@@ -19,7 +33,8 @@ import numpy as np
 from ._errors import CLIError
 from ._problem import PSEUDO_LINEAR, Structure, model_names, polynomial_form
 
-__all__ = ["ModelRegressors", "fleet_structure", "fleet_method", "fit_devices"]
+__all__ = ["ModelRegressors", "fleet_structure", "fleet_method", "uses_fit_models",
+           "device_model"]
 
 
 def fleet_structure(y, u, orders: dict, dt) -> Structure | None:
@@ -75,52 +90,41 @@ class ModelRegressors:
                                  names=tuple(names), index=np.asarray(reg.index))
 
 
-def _device_fit(s: Structure, part, label):
-    """The model object of ``s`` fitted to one device's rows."""
-    from adaptid import IDData
-
-    from ._modelfit import model_object
-
-    y = part[s.y].to_numpy(dtype=np.float64)
-    U = part[s.u].to_numpy(dtype=np.float64) if s.u else None
-    if not np.isfinite(y).all() or (U is not None and not np.isfinite(U).all()):
-        raise CLIError(f"device {label!r}: missing values in the columns used; a batch model "
-                       "fit needs a complete record (use --method rls --nan skip to skip them)")
-    try:
-        data = IDData(y, U, dt=s.dt if s.dt is not None else 1.0, y_names=s.y, u_names=s.u)
-        model = model_object(s.kind, s, data.dt)
-        model.fit(data.y if s.kind == "arma" else data)
-    except (ValueError, np.linalg.LinAlgError) as e:
-        raise CLIError(f"device {label!r}: --{s.kind}: {e}") from None
-    return model
+def uses_fit_models(s: Structure, method: str) -> bool:
+    """Whether the model option runs by :func:`adaptid.fleet.fit_models` (a model object per
+    device): every batch fit, and the pseudo-linear models with a recursive method."""
+    return method == "batch" or s.kind in PSEUDO_LINEAR
 
 
-def fit_devices(frame, group, s: Structure, *, time=None):
-    """One batch model fit per device; a DataFrame indexed by device (sorted).
+def device_model(s: Structure, method: str, options: dict, nan_policy: str):
+    """The object :func:`adaptid.fleet.fit_models` copies to every device.
 
-    Columns: the model's parameter names, ``stderr_<name>``, ``n_samples``
-    (residuals), ``n_skipped`` (0), ``sigma2`` (the model's noise variance),
-    ``rms`` (RMS residual).
+    ``batch``: the model object of ``adaptid fit`` (``ARX`` …, ``BJ``, not
+    fitted). A recursive method: the streaming object (``RecursiveARMA``,
+    ``RecursiveARMAX``, ``RecursiveOE``, ``RecursiveBJ``; ``start="filled"``)
+    with the algorithm, options and prior of the estimator that
+    :func:`adaptid.estimator` builds from ``method`` and ``options``, as
+    ``adaptid fit`` runs it.
     """
-    import pandas as pd
+    from adaptid import models
 
-    for col in [group, s.y, *(s.u or ()), *([time] if time else [])]:
-        if col not in frame.columns:
-            raise CLIError(f"column {col!r} is not in the data (columns: "
-                           f"{', '.join(map(str, frame.columns[:20]))})")
-    rows, labels = [], []
-    for label, part in frame.groupby(group, sort=True):
-        if time is not None:
-            part = part.sort_values(time, kind="stable")
-        m = _device_fit(s, part, label)
-        res = np.asarray(m.residuals, dtype=np.float64)
-        row = dict(zip(m.names, map(float, m.theta)))
-        row.update({f"stderr_{n}": float(se) for n, se in zip(m.names, m.stderr)})
-        row.update(n_samples=int(res.size), n_skipped=0, sigma2=float(m.noise_variance),
-                   rms=float(np.sqrt(np.mean(res ** 2))))
-        rows.append(row)
-        labels.append(label)
-    return pd.DataFrame(rows, index=pd.Index(labels, name=group))
+    from ._engine import MethodSpec
+    from ._modelfit import model_object, n_params
+
+    dt = s.dt if s.dt is not None else 1.0
+    if method == "batch":
+        return model_object(s.kind, s, dt)
+    if nan_policy == "skip":
+        raise CLIError(f"--nan skip is not available with fleet --{s.kind} --method {method}: "
+                       "the streaming model needs a complete record per device")
+    est = MethodSpec(method=method, **options).make(n_params(s.kind, s.orders, len(s.u or ())),
+                                                    "raise")
+    cls = {"arma": models.RecursiveARMA, "armax": models.RecursiveARMAX,
+           "oe": models.RecursiveOE, "bj": models.RecursiveBJ}[s.kind]
+    try:
+        return cls(*s.orders, start="filled", dt=dt)._use_core(est)
+    except ValueError as e:
+        raise CLIError(f"--{s.kind}: {e}") from None
 
 
 def check_fleet_method(s: Structure, method: str | None, given: dict) -> str:
@@ -138,9 +142,6 @@ def check_fleet_method(s: Structure, method: str | None, given: dict) -> str:
             raise CLIError("--tracks needs a recursive --method (rls, window, kalman, lms, nlms): "
                            "a batch model fit has no per-sample track")
         return "batch"
-    if s.kind in PSEUDO_LINEAR:
-        raise CLIError(f"--method {method} is not available with fleet --{s.kind}: its regressors "
-                       "are filtered with the running estimate; fit it in batch (no --method)")
     return method
 
 

@@ -4,6 +4,11 @@
   run on every group (device) of a pandas / dask DataFrame or Parquet data
   set, as one Dask computation over a compiled segmented kernel; one row of
   results per device (θ, standard errors, residual RMS, a CUSUM change flag);
+* :func:`fit_models` — a model object of :mod:`adaptid.models` fitted in
+  batch on every device (ARX, AR by least squares; ARMA, ARMAX, OE, BJ by
+  prediction errors), or a streaming pseudo-linear object
+  (``RecursiveARMAX`` …) run on every device, one Dask task per partition of
+  whole devices; the same per-device table;
 * :func:`lstsq` — batch least squares of a tall dask array (taller than
   memory) by a tall-skinny QR, equal to :func:`adaptid.lstsq`.
 
@@ -14,6 +19,7 @@ Needs the ``dask`` extra: ``pip install 'adaptid[dask]'``.
 """
 
 from ._identify import identify
+from ._models import fit_models
 from ._tsqr import lstsq
 
-__all__ = ["identify", "lstsq"]
+__all__ = ["identify", "lstsq", "fit_models"]
