@@ -121,6 +121,8 @@ class _PseudoLinearModel(_PolyModel):
         Parameters
         ----------
         y : array_like, shape (N,); or IDData (``u`` then omitted)
+            May hold several experiments (a merged IDData) and NaN gaps
+            (see Notes).
         u : array_like, shape (N,) or (N, m)
         estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
             Read, not modified: its options and current θ, P are the
