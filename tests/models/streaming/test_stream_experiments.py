@@ -12,8 +12,8 @@ import pytest
 from scipy.signal import lfilter
 
 import adaptid
-from adaptid.models import (ARMA, ARMAX, ARX, BJ, OE, IDData, RecursiveARMA, RecursiveARMAX,
-                            RecursiveARX, RecursiveBJ, RecursiveOE)
+from adaptid.models import (AR, ARMA, ARMAX, ARX, BJ, OE, IDData, RecursiveAR, RecursiveARMA,
+                            RecursiveARMAX, RecursiveARX, RecursiveBJ, RecursiveOE)
 
 #: kind -> (stream class, batch class, orders, number of parameters, lag buffers)
 MODELS = {
@@ -22,7 +22,9 @@ MODELS = {
     "oe": (RecursiveOE, OE, (2, 2, 1), 4, ("ybuf", "ubuf", "vh")),
     "bj": (RecursiveBJ, BJ, (2, 1, 1, 2, 1), 6, ("ybuf", "ubuf", "vh")),
     "arx": (RecursiveARX, ARX, (2, 2, 1), 4, ("ybuf", "ubuf")),
+    "ar": (RecursiveAR, AR, (2,), 2, ("ybuf", "ubuf")),
 }
+SERIES = ("arma", "ar")       # time-series models: step(y), IDData without inputs
 SIZES = (150, 90, 120)
 
 
@@ -39,7 +41,7 @@ def recs():
 
 
 def _merged(kind, recs):
-    parts = [IDData(y) if kind == "arma" else IDData(y, u) for y, u in recs]
+    parts = [IDData(y) if kind in SERIES else IDData(y, u) for y, u in recs]
     return parts[0].merge(*parts[1:])
 
 
@@ -66,7 +68,7 @@ def _steps_with_restarts(kind, recs, opts):
         if i:
             obj = _restart_by_hand(obj, kind)
         for k in range(y.size):
-            th, yh = obj.step(y[k]) if kind == "arma" else obj.step(y[k], u[k])
+            th, yh = obj.step(y[k]) if kind in SERIES else obj.step(y[k], u[k])
             T.append(th)
             Yh.append(yh)
     return obj, np.array(T), np.array(Yh)
@@ -92,7 +94,7 @@ def test_run_of_merged_record_equals_steps_with_buffers_restarted(recs, kind, op
         assert _updates(obj) == sum(SIZES) - 3 * 2
     # without the restarts (the record as one experiment) the tracks differ
     whole = cls(*orders, **opts).run(*((np.concatenate([y for y, _ in recs]),)
-                                       if kind == "arma" else
+                                       if kind in SERIES else
                                        (np.concatenate([y for y, _ in recs]),
                                         np.concatenate([u for _, u in recs]))))
     assert not np.array_equal(whole.theta, res.theta)
