@@ -254,8 +254,9 @@ def test_oe_criterion_sums_over_experiments_and_gaps_split_the_record(rng):
     assert gap.n_dropped == 2 + 2
     with pytest.raises(ValueError, match="y must be without NaN"):
         OE(2, 1, 1).fit(y, u, nan_policy="raise")
-    with pytest.raises(ValueError, match="one experiment without NaN gaps"):
-        OE(2, 1, 1).fit_recursive(y, u)
+    # the recursion takes the gap too (issue 34): as on the merged record
+    np.testing.assert_array_equal(OE(2, 1, 1).fit_recursive(y, u).theta,
+                                  OE(2, 1, 1).fit_recursive(m).theta)
 
 
 def test_bj_and_arma_run_per_experiment(rng):

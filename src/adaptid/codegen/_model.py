@@ -142,7 +142,7 @@ def _spec(obj, offsets) -> _Spec:
         return _Spec("AR" if ar else "ARX", type(obj).__name__, o["na"], nb, nk, obj.names,
                      y0, u0, np.asarray(st["ybuf"], dtype=float).reshape(-1),
                      np.asarray(st["ubuf"], dtype=float).reshape(len(nb), -1) if nb
-                     else np.zeros((0, 0)), int(o["count"]),
+                     else np.zeros((0, 0)), int(o.get("since", o["count"])),  # buffers' age
                      s if o["start"] == "filled" else 0, bool(o["single"]), inner=inner)
     if not isinstance(obj, ARX):
         raise param_error("model", "an ARX or AR model or a RecursiveARX / RecursiveAR",

@@ -337,6 +337,9 @@ class ARMA(_TimeSeries, ARMAX):
         :math:`[-y_{k-1}, \dots, -y_{k-n_a}, \varepsilon_{k-1}, \dots, \varepsilon_{k-n_c}]`
         holds the a-posteriori residuals; any RLS (with a forgetting
         strategy), SlidingWindowRLS or KalmanRLS with ``n_params = na + nc``.
+        A merged IDData or NaN gaps: the residual lags restart from zero in
+        each experiment and each run between gaps, θ and P run on (as
+        :meth:`ARMAX.fit_recursive`).
 
         Parameters
         ----------

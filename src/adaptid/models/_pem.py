@@ -121,6 +121,8 @@ class _PseudoLinearModel(_PolyModel):
         Parameters
         ----------
         y : array_like, shape (N,); or IDData (``u`` then omitted)
+            May hold several experiments (a merged IDData) and NaN gaps
+            (see Notes).
         u : array_like, shape (N,) or (N, m)
         estimator : RLS, SlidingWindowRLS or KalmanRLS, optional
             Read, not modified: its options and current θ, P are the
@@ -145,21 +147,36 @@ class _PseudoLinearModel(_PolyModel):
             Row i is the estimate after row i of the regression (sample
             ``meta["index"][i]``); ``error`` the a-priori errors;
             ``meta["regressors"]`` (N, d) the regressor rows the recursion
-            formed (fixed columns, then the lagged signals). The model
-            takes the final estimate; ``cov`` is the prediction-error
-            covariance at it.
-        """
-        self._nan_policy = "omit"           # rows that touch a NaN left out (see fit)
-        reg, Phi_fix = self._prepare(y, u)
-        if len(self._row_bounds) > 2:
-            from .._validation import param_error
+            formed (fixed columns, then the lagged signals);
+            ``meta["row_bounds"]`` the first row of each piece (and the
+            number of rows), ``meta["n_dropped"]`` the rows lost to gaps
+            (as the model's ``n_dropped``). The model takes the final
+            estimate; ``cov`` is the prediction-error covariance at it.
 
-            raise param_error("y", "one experiment without NaN gaps for the recursion (fit "
-                              "takes several experiments and gaps)",
-                              f"<{len(self._row_bounds) - 1} pieces>")
+        Notes
+        -----
+        **Several experiments and gaps.** A merged record
+        (:meth:`IDData.merge <adaptid.IDData.merge>`) or one with NaN
+        samples is run piece by piece, the pieces being the experiments
+        split at each run of NaN into the runs of complete samples (as
+        :meth:`fit` splits them). The rows of each piece are formed inside
+        it (from its sample :math:`s = \max(n_a, n_k + n_b - 1)` on), and
+        the lagged signals the recursion builds (residuals, simulated
+        outputs) restart from zero at its first row, as the
+        prediction-error filters of :meth:`fit` restart per experiment
+        (Ljung (1999), sec. 14.2). The estimator's state (θ, P, the
+        window buffer, the diffuse state, the forgetting) runs on from one
+        piece to the next, so the result equals running the pieces one
+        after the other with the final θ, P of each handed to the next.
+        Still one compiled call: the kernel takes the pieces' row bounds.
+        """
+        self._nan_policy = "omit"           # gaps split the record into runs (see fit)
+        reg, Phi_fix = self._prepare(y, u)
+        rb = np.asarray(self._row_bounds, dtype=np.int64)
         Ik = np.empty(reg.y.shape[0])
         spec = self._signal_spec(Phi_fix.shape[1])
-        Th, E, V, theta, P, Lk, n_rebuilds = run_signals(Phi_fix, reg.y, spec, estimator, Ik)
+        Th, E, V, theta, P, Lk, n_rebuilds = run_signals(Phi_fix, reg.y, spec, estimator, Ik,
+                                                         row_bounds=rb)
         diffuse = bool(getattr(estimator, "diffuse", False))
         theta = self._stable(theta)
         if refine:
@@ -169,7 +186,8 @@ class _PseudoLinearModel(_PolyModel):
         import dataclasses
 
         traj = self._trajectory(Th, E, reg.index, self.names, Lk)
-        traj.meta["regressors"] = regressors_used(Phi_fix, V, spec)
+        traj.meta.update(regressors=regressors_used(Phi_fix, V, spec, rb), row_bounds=rb,
+                         n_dropped=self.n_dropped, n_experiments=self.n_experiments)
         return dataclasses.replace(traj, n_rebuilds=n_rebuilds,
                                    identified=(Ik != 0.0) if diffuse else None)
 

@@ -87,7 +87,7 @@ def run_pseudolinear(Phi_fix, Y, groups, alpha, beta, sgn, estimator):
     return run_signals(Phi_fix, Y, signal_spec(groups, alpha, beta, sgn, n), estimator)[:6]
 
 
-def run_signals(Phi_fix, Y, spec, estimator, identified=None):
+def run_signals(Phi_fix, Y, spec, estimator, identified=None, row_bounds=None):
     """One compiled RELS / PLR pass; returns (Th, E, V, theta, P, Lk, n_rebuilds).
 
     Lk holds the λₖ a forgetting strategy applied (None without one).
@@ -100,6 +100,9 @@ def run_signals(Phi_fix, Y, spec, estimator, identified=None):
     ``P0="diffuse"`` the start is exact (see :mod:`adaptid._kernels.layers._pseudolinear`);
     ``identified``, an optional (N,) float array, then receives per sample
     1.0 once the data determine θ (0.0 before; P is inf while not identified).
+    ``row_bounds`` (P + 1,), the first row of each of P pieces (experiments,
+    runs between gaps) and N: the signals' lags restart from zero at each
+    piece, the estimator's state runs on (default: one piece).
     """
     from .._config import DOWNDATE_RTOL
 
@@ -115,6 +118,7 @@ def run_signals(Phi_fix, Y, spec, estimator, identified=None):
     E = np.empty(N)
     V = np.empty((N, G))
     Lk = np.empty(N)
+    rb = np.array([0, N] if row_bounds is None else row_bounds, dtype=np.int64)
     status = pseudolinear_run(np.ascontiguousarray(Phi_fix, dtype=np.float64),
                               np.ascontiguousarray(Y, dtype=np.float64),
                               np.ascontiguousarray(alpha, dtype=np.float64),
@@ -123,7 +127,7 @@ def run_signals(Phi_fix, Y, spec, estimator, identified=None):
                               np.ascontiguousarray(dyn_lag, dtype=np.int64),
                               np.ascontiguousarray(dyn_sgn, dtype=np.float64),
                               theta, U, D, lam, Q, kalman, r2, M, DOWNDATE_RTOL, mode, fp, pmax,
-                              Th, E, V, Lk, dif, dtol, Ik)
+                              Th, E, V, Lk, dif, dtol, Ik, rb)
     if status < 0:
         raise FloatingPointError("the Kalman time update P + Q lost positive definiteness "
                                  "(P overflowed?)")
@@ -138,13 +142,16 @@ def run_signals(Phi_fix, Y, spec, estimator, identified=None):
     return (Th, E, V, theta, 0.5 * (P + P.T), (Lk if mode >= 0 else None), int(status))
 
 
-def regressors_used(Phi_fix, V, spec):
+def regressors_used(Phi_fix, V, spec, row_bounds=None):
     """The regressor rows the recursion formed: ``Phi_fix`` followed by the dynamic
-    columns ``dyn_sgn[j] * V[k - dyn_lag[j], dyn_group[j]]`` (0 before the first row)."""
+    columns ``dyn_sgn[j] * V[k - dyn_lag[j], dyn_group[j]]`` (0 before the first row
+    of each piece of ``row_bounds``, default one piece)."""
     alpha, mix, dyn_group, dyn_lag, dyn_sgn = spec
     N = V.shape[0]
+    bounds = [0, N] if row_bounds is None else [int(b) for b in row_bounds]
     dyn = np.zeros((N, np.asarray(dyn_group).shape[0]))
     for j, (g, lag, sg) in enumerate(zip(dyn_group, dyn_lag, dyn_sgn)):
-        if lag < N:
-            dyn[lag:, j] = sg * V[:N - lag, g]
+        for s, e in zip(bounds[:-1], bounds[1:]):
+            if lag < e - s:
+                dyn[s + lag:e, j] = sg * V[s:e - lag, g]
     return np.hstack([Phi_fix, dyn])

@@ -212,7 +212,7 @@ def _signals_step(alpha, mix, phi, theta, yk, Vk, vh, n, L):
 @njit(**NJIT)
 def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
                      U, D, lam, Q, kalman, r2, M, rtol, mode, fp, pmax, Th, E, V, Lk, dif,
-                     dtol, Ik):
+                     dtol, Ik, rb):
     r"""Recursive pseudo-linear regression on the U-D factors of P.
 
     The regressor of sample k is the fixed columns ``Phi_fix[k]`` followed
@@ -255,6 +255,13 @@ def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
     rank tolerance) the samples before full rank go through the diffuse
     prologue and ``Ik[k]`` receives the identified flag (1.0 without one).
 
+    Several experiments (or the runs between NaN gaps): ``rb`` (P + 1,) holds
+    the first row of each of the P pieces and N (``[0, N]``: one piece). At
+    the first row of each piece the signals' lag history restarts from zero
+    (the dynamic columns of its first rows are 0, as the prediction-error
+    filters of ``fit`` restart), while θ, the U-D factors, the window
+    buffer, the diffuse state and the row count k run on across pieces.
+
     Returns the number of window re-solves, or −1 if the time update lost
     positive definiteness.
     """
@@ -285,7 +292,14 @@ def pseudolinear_run(Phi_fix, Y, alpha, mix, dyn_group, dyn_lag, dyn_sgn, theta,
     logl = np.log(lam)
     rebuilds = 0
     diffuse = dif.shape[0] > 0
+    piece = 1
     for k in range(N):
+        restart = False
+        while piece < rb.shape[0] and rb[piece] <= k:   # k starts the next piece
+            piece += 1
+            restart = True
+        if restart:
+            vh[:, :] = 0.0
         for j in range(nfix):
             phi[j] = Phi_fix[k, j]
         for j in range(nd):

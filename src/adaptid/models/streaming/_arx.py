@@ -85,6 +85,30 @@ def _core_estimator(method, n, *, forgetting, noise_cov, noise_var, step, bias, 
     return estimator(core, n, **opts)
 
 
+def _by_experiment(obj, fn, y, U, data):
+    """``fn(y_e, U_e) -> (theta, yhat)`` on each experiment of a merged IDData in turn,
+    the lag buffers restarted (``obj._restart()``) before each but the first; the
+    tracks concatenated. If one raises, the object's state is restored as it was."""
+    from .._segments import record_bounds
+
+    bounds = record_bounds(data, y.shape[0])
+    if len(bounds) == 2:
+        return fn(y, U)
+    saved = dict(obj.__dict__)
+    saved["_est"] = obj._est.copy()
+    parts = []
+    try:
+        for i, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+            if i:
+                obj._restart()
+            parts.append(fn(y[a:b], U[a:b]))
+    except BaseException:
+        obj.__dict__.clear()
+        obj.__dict__.update(saved)
+        raise
+    return np.vstack([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
 def _row_dot(Phi, Th):
     """φₖᵀθₖ row by row (the one formula of step and run: equal bit for bit)."""
     return (Phi * Th).sum(axis=1)
@@ -135,7 +159,9 @@ class RecursiveARX(StateFileMethods):
     after construction or :meth:`reset`): before it :meth:`step` returns the
     unchanged θ and ``yhat = NaN``; :meth:`run` over a whole record then
     equals ``ARX(na, nb, nk).fit_recursive(...)`` with the same estimator
-    bit for bit.
+    bit for bit. A merged IDData given to :meth:`run` restarts the buffers
+    (and the wait) at each experiment while θ and P run on, as
+    ``fit_recursive`` forms its rows inside each experiment.
 
     Parameters
     ----------
@@ -262,9 +288,14 @@ class RecursiveARX(StateFileMethods):
     def reset(self):
         """Back to the prior (θ₀, P₀) with zero lag buffers and the sample count at 0."""
         self._est.reset()
+        self._count = 0
+        self._restart()
+
+    def _restart(self):
+        """Zero lag buffers (a new experiment): the estimate and P run on."""
         self._ybuf = np.zeros(self.na)               # y(k-1), …, y(k-na)
         self._ubuf = np.zeros((self._m, self._Lu))   # u(k-1), …, u(k-Lu) per input
-        self._count = 0
+        self._since = 0                              # samples since the buffers restarted
 
     # ------------------------------------------------------ regressors
     def _inputs(self, u, N, where="u"):
@@ -322,7 +353,7 @@ class RecursiveARX(StateFileMethods):
             raise param_error("y", "one output sample (a scalar)", f"<shape {np.shape(y)}>")
         U = self._inputs(None if u is None else np.reshape(as_float_array(u, "u"), (1, -1)), 1)
         Phi, ybuf, ubuf = self._regressors(yv, U)
-        if self.start == "filled" and self._count < self._s:
+        if self.start == "filled" and self._since < self._s:
             yhat = np.nan
         else:
             th = np.array(self._est.theta, dtype=np.float64).reshape(1, -1)
@@ -330,6 +361,7 @@ class RecursiveARX(StateFileMethods):
             self._est.update(Phi[0], yv[0])
         self._ybuf, self._ubuf = ybuf, ubuf
         self._count += 1
+        self._since += 1
         return self.theta, yhat
 
     def run(self, y, u=None):
@@ -352,17 +384,32 @@ class RecursiveARX(StateFileMethods):
         -------
         StreamResult
             ``theta`` (N, n) after each sample, ``yhat`` (N,) before it.
+
+        Notes
+        -----
+        A merged IDData (:meth:`IDData.merge <adaptid.IDData.merge>`) is run
+        experiment by experiment: the lag buffers restart from zero at the
+        first sample of each (``start="filled"`` waits again), while the
+        estimator's θ and P run on; equal to :meth:`step` over the samples
+        with the buffers zeroed at each boundary.
         """
         from .._iddata import as_signals
 
         yy, uu, data = as_signals(y, u)
         yy = as_float_array(yy, "y", ndim=1)
+        U = self._inputs(uu, yy.shape[0])
+        theta, yhat = _by_experiment(self, self._samples, yy, U, data)
+        if data is not None and getattr(data, "dt", None) is not None:
+            self.dt = float(data.dt)
+        return StreamResult(theta=theta, yhat=yhat, names=self.names)
+
+    def _samples(self, yy, U):
+        """The samples of one experiment following the buffers: (theta, yhat)."""
         N = yy.shape[0]
-        U = self._inputs(uu, N)
         Phi, ybuf, ubuf = self._regressors(yy, U)
         used = np.ones(N, dtype=bool)
         if self.start == "filled":
-            used[: max(self._s - self._count, 0)] = False
+            used[: max(self._s - self._since, 0)] = False
         th_prev = np.empty((N, self.n_params))
         theta = np.empty((N, self.n_params))
         yhat = np.full(N, np.nan)
@@ -379,9 +426,8 @@ class RecursiveARX(StateFileMethods):
             yhat[first:] = _row_dot(Phi[first:], th_prev[first:])
         self._ybuf, self._ubuf = ybuf, ubuf
         self._count += N
-        if data is not None and getattr(data, "dt", None) is not None:
-            self.dt = float(data.dt)
-        return StreamResult(theta=theta, yhat=yhat, names=self.names)
+        self._since += N
+        return theta, yhat
 
     def to_model(self):
         """The :class:`~adaptid.models.ARX` (:class:`~adaptid.models.AR`) with the current θ."""
@@ -403,7 +449,7 @@ class RecursiveARX(StateFileMethods):
     def _options(self):
         return {"na": self.na, "nb": list(self.nb), "nk": list(self.nk), "single": self._single,
                 "method": self.method, "start": self.start, "dt": self.dt,
-                "count": self._count}
+                "count": self._count, "since": self._since}
 
     def get_state(self) -> dict:
         """Everything needed to resume exactly: the core estimator's state, the lag
@@ -437,6 +483,7 @@ class RecursiveARX(StateFileMethods):
             ybuf = np.array(state["ybuf"], dtype=np.float64).reshape(-1)
             ubuf = np.array(state["ubuf"], dtype=np.float64)
             count = o["count"]
+            since = o.get("since", count)    # states written before buffers restarted
         except KeyError as err:
             raise param_error("state", "a complete dict from get_state()",
                               f"<missing key {err.args[0]!r}>") from None
@@ -448,7 +495,10 @@ class RecursiveARX(StateFileMethods):
                               f"<shapes {ybuf.shape}, {ubuf.shape}>")
         if type(count) is not int or count < 0:
             raise param_error("state['options']['count']", "an integer >= 0", count)
+        if type(since) is not int or not 0 <= since <= count:
+            raise param_error("state['options']['since']", "an integer in [0, count]", since)
         obj._est, obj._ybuf, obj._ubuf, obj._count = inner, ybuf, ubuf, count
+        obj._since = since
         return obj
 
     def __repr__(self):

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..._validation import as_float_array, check_choice, param_error
 from ...estimators._statefile import StateFileMethods
-from ._arx import _METHODS, _STARTS, RecursiveARX, StreamResult, _core_estimator
+from ._arx import _METHODS, _STARTS, RecursiveARX, StreamResult, _by_experiment, _core_estimator
 from ._plr_state import _PACKED, _packed, restore
 
 __all__ = ["_PseudoLinearStream"]
@@ -103,16 +103,22 @@ class _PseudoLinearStream(StateFileMethods):
         """Back to the prior (θ₀, P₀): zero lag buffers and signal history, counts at 0."""
         theta, U, D, dif = self._start
         n, M = self.n_params, self._opts[4]
-        G = self._spec[0].shape[0]
-        L = max([1] + [int(x) for x in self._spec[3]])
         self._theta, self._U, self._D, self._dif = theta.copy(), U.copy(), D.copy(), dif.copy()
-        self._vh = np.zeros((G, L))                  # vh[g, l - 1] = v_g(k - l)
         self._Bphi = np.zeros((max(M, 1), n))        # the window's regressors (slot k mod M)
         self._By = np.zeros(max(M, 1))
-        self._ybuf = np.zeros(self.na)               # y(k-1), …, y(k-na)
-        self._ubuf = np.zeros((self._m, self._Lu))   # u(k-1), …, u(k-Lu) per input
         self._count = 0                              # samples seen
         self._k = 0                                  # recursion steps made
+        self._restart()
+
+    def _restart(self):
+        """Zero lag buffers and signal history (a new experiment); θ, P, the window
+        buffer, the diffuse state and the counts run on."""
+        G = self._spec[0].shape[0]
+        L = max([1] + [int(x) for x in self._spec[3]])
+        self._vh = np.zeros((G, L))                  # vh[g, l - 1] = v_g(k - l)
+        self._ybuf = np.zeros(self.na)               # y(k-1), …, y(k-na)
+        self._ubuf = np.zeros((self._m, self._Lu))   # u(k-1), …, u(k-Lu) per input
+        self._since = 0                              # samples since the buffers restarted
 
     @property
     def theta(self):
@@ -177,7 +183,7 @@ class _PseudoLinearStream(StateFileMethods):
             if not np.isfinite(x).all():
                 raise param_error(name, "finite values (no NaN or inf)", "<non-finite values>")
         Phi, ybuf, ubuf = self._regressors(y, U)
-        first = min(max(self._s - self._count, 0), N) if self.start == "filled" else 0
+        first = min(max(self._s - self._since, 0), N) if self.start == "filled" else 0
         before = self.theta
         theta = np.empty((N, self.n_params))
         theta[:first] = before
@@ -188,6 +194,7 @@ class _PseudoLinearStream(StateFileMethods):
             yhat[first:] = Yh
         self._ybuf, self._ubuf = ybuf, ubuf
         self._count += N
+        self._since += N
         return theta, yhat
 
     def step(self, y, u=None):
@@ -230,13 +237,24 @@ class _PseudoLinearStream(StateFileMethods):
         -------
         StreamResult
             ``theta`` (N, n) after each sample, ``yhat`` (N,) before it.
+
+        Notes
+        -----
+        A merged IDData (:meth:`IDData.merge <adaptid.IDData.merge>`) is run
+        experiment by experiment, as ``fit_recursive`` runs it: the lag
+        buffers of y, u and of the signals the recursion forms restart
+        from zero at the first sample of each (``start="filled"`` waits
+        again), while θ, P, the window buffer and the diffuse state run
+        on; equal bit for bit to :meth:`step` over the samples with those
+        buffers zeroed at each boundary. NaN (a gap) is refused: split the
+        record at its gaps and merge the runs.
         """
         from .._iddata import as_signals
 
         yy, uu, data = as_signals(y, u)
         yy = as_float_array(yy, "y", ndim=1)
         U = self._inputs(uu, yy.shape[0])
-        theta, yhat = self._samples(yy, U)
+        theta, yhat = _by_experiment(self, self._samples, yy, U, data)
         if data is not None and getattr(data, "dt", None) is not None:
             self.dt = float(data.dt)
         return StreamResult(theta=theta, yhat=yhat, names=self.names)
@@ -267,7 +285,7 @@ class _PseudoLinearStream(StateFileMethods):
         """Everything needed to resume exactly: the core estimator (algorithm and prior),
         the recursion's arrays, the lag buffers, the structure and the counts."""
         o = dict(self._options(), method=self.method, start=self.start, dt=self.dt,
-                 count=self._count, k=self._k)
+                 count=self._count, k=self._k, since=self._since)
         arrays = {a: np.array(getattr(self, "_" + a), dtype=np.float64) for a in _ARRAYS}
         arrays.update(dif=self._dif, ybuf=self._ybuf, ubuf=self._ubuf.copy())
         arrays = {k: (_packed(v) if k in _PACKED else v.reshape(1, -1).copy() if v.ndim == 1

@@ -35,7 +35,7 @@ def _header(cls, state):
         inner = estimator_from_state(state["inner"])
         arrays = {k: np.array(state[k], dtype=np.float64) for k in cls._STATE_FILE_ARRAYS}
         obj = cls._build(o)
-        counts = (o["count"], o["k"])
+        counts = (o["count"], o["k"], o.get("since", o["count"]))  # (states before restarts)
     except KeyError as err:
         raise param_error("state", "a complete dict from get_state()",
                           f"<missing key {err.args[0]!r}>") from None
@@ -62,7 +62,7 @@ def _check_factor(U, D):
 
 def restore(cls, state):
     """``cls.from_state(state)``: check the dict, rebuild, put the arrays back."""
-    obj, inner, arrays, (count, k) = _header(cls, state)
+    obj, inner, arrays, (count, k, since) = _header(cls, state)
     _check_inner(obj, inner)
     obj._est = inner
     obj._configure()
@@ -86,7 +86,9 @@ def restore(cls, state):
     if type(count) is not int or type(k) is not int or not 0 <= k <= count:
         raise param_error("state['options']", "counts 'count' >= 'k' >= 0",
                           f"<{count!r}, {k!r}>")
+    if type(since) is not int or not 0 <= since <= count:
+        raise param_error("state['options']['since']", "an integer in [0, count]", since)
     for key, a in mine.items():
         setattr(obj, "_" + key, a)
-    obj._count, obj._k = count, k
+    obj._count, obj._k, obj._since = count, k, since
     return obj

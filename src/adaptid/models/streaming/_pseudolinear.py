@@ -78,7 +78,9 @@ class RecursiveARMAX(_PseudoLinearStream):
     over a record equals ``ARMAX(na, nb, nc, nk).fit_recursive(y, u, est)``
     bit for bit (``est`` the core estimator the options describe, e.g.
     ``adaptid.estimator("rls", n, forgetting=λ)``; before root reflection,
-    which ``fit_recursive`` applies to the model's final θ only).
+    which ``fit_recursive`` applies to the model's final θ only). A merged
+    IDData given to :meth:`run` restarts these buffers (and the wait) at
+    each experiment while θ and P run on, as ``fit_recursive`` does.
 
     **MATLAB's recursive objects differ.** MATLAB's ``recursiveARMAX``
     (``recursiveARMA``, ``recursiveOE``, ``recursiveBJ``) runs the recursive
