@@ -190,5 +190,8 @@ def test_pandas_and_iddata_names_flow_into_the_fit(rng):
     assert list(G.input_labels) == ["heat"] and list(G.output_labels) == ["temp"]
     with pytest.raises(TypeError, match="u must be None when the first argument is an IDData"):
         ARX(1, 2, 1).fit(IDData(y, u), u)
+    from adaptid import RLS
+    with pytest.raises(TypeError, match="got the estimator RLS: pass it by keyword, estimator="):
+        ARX(1, 2, 1).fit_recursive(IDData(y, u), RLS(3))  # by position it lands in u
     with pytest.raises(TypeError, match="u must be an input signal"):
         ARX(1, 2, 1).fit(y)

@@ -8,7 +8,7 @@ from .._validation import as_float_array, check_choice, check_scalar, param_erro
 from .._lazy import pyplot
 from ._experiments import ExperimentsMixin, _merged
 
-__all__ = ["IDData", "as_signals"]
+__all__ = ["IDData", "as_signals", "u_with_iddata_error"]
 
 
 def _names_of(obj):
@@ -506,6 +506,17 @@ def _is_frame(obj):
     return hasattr(obj, "columns") and hasattr(obj, "iloc")
 
 
+def u_with_iddata_error(u) -> TypeError:
+    """The error for a second signal given beside an IDData (which holds u already);
+    an estimator given there by position is told to go by keyword."""
+    if hasattr(u, "update") and hasattr(u, "theta"):
+        return TypeError(f"u must be None when the first argument is an IDData, got the "
+                         f"estimator {type(u).__name__}: pass it by keyword, estimator=...")
+    return param_error("u", "None when the first argument is an IDData (it holds the inputs)",
+                       u if np.ndim(u) == 0 else f"<an array of shape {np.shape(u)}>",
+                       exc=TypeError)
+
+
 def _squeeze_column(arr):
     """An (N, 1) array (or DataFrame's values) as (N,), as :class:`IDData` and ``lstsq`` do."""
     if getattr(arr, "ndim", 0) == 2 and arr.shape[1] == 1:
@@ -541,8 +552,7 @@ def as_signals(y, u=None, *, where="y"):
         y, u = y.iloc[:, 0], y.iloc[:, 1:]
     if isinstance(y, IDData):
         if u is not None:
-            raise param_error("u", "None when the first argument is an IDData", "<an array>",
-                              exc=TypeError)
+            raise u_with_iddata_error(u)
         if y.n_outputs != 1:
             raise param_error(where, "an IDData with one output", f"<{y.n_outputs} outputs>")
         return y.y, (y.u if y.n_inputs else None), y

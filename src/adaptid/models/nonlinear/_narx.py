@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._validation import as_float_array, check_choice, check_int, param_error
-from .._iddata import IDData
+from .._iddata import IDData, u_with_iddata_error
 from .._polymodel import NotFittedError
 from ..._kernels.layers._narx import narx_simulate, narx_terms
 from ._basis import MonomialBasis
@@ -369,8 +369,7 @@ class NARX(RecursiveFitMixin):
     def _signals(self, y, u, what):
         if isinstance(y, IDData):
             if u is not None:
-                raise param_error("u", "None when the first argument is an IDData", "<an array>",
-                                  exc=TypeError)
+                raise u_with_iddata_error(u)
             y, u = y.outputs, y.inputs
         Y = as_float_array(getattr(y, "to_numpy", lambda: y)(), what, ndim=(1, 2))
         Y = Y.reshape(Y.shape[0], -1)
