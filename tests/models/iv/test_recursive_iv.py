@@ -333,3 +333,15 @@ def test_compiled_kernel_equals_the_interpreted_source():
     res = RecursiveIV(2, 2, 1, forgetting=0.99, warmup=5).run((y, u))
     np.testing.assert_allclose(np.hstack([res.theta, res.x[:, None]]), ref, rtol=1e-9,
                                atol=1e-12)
+
+
+def test_run_refuses_a_merged_record_naming_it():
+    """The auxiliary simulation and the lag buffers would run across the boundary."""
+    from adaptid.models import IDData, RecursiveIV
+    rng = np.random.default_rng(5)
+    parts = [IDData(rng.standard_normal(80), rng.standard_normal(80)) for _ in range(2)]
+    est = RecursiveIV(1, 1, 1)
+    before = est.theta.copy()
+    with pytest.raises(ValueError, match="y must be one experiment.*merged record of 2"):
+        est.run(parts[0].merge(parts[1]))
+    np.testing.assert_array_equal(est.theta, before)

@@ -293,3 +293,17 @@ def test_narmax_recursive_extended_least_squares(lam, window):
     assert tr.names == m.terms and tr.names[3:] == ("e(k-1)", "e(k-2)")
     if lam == 1.0 and window == 0:   # close to the batch extended least squares
         np.testing.assert_allclose(tr.theta[-1], m.theta, atol=0.15)
+
+
+def test_run_refuses_a_merged_record_naming_it():
+    from adaptid.models import IDData, NARX, RecursiveNARX
+    rng = np.random.default_rng(6)
+    u = rng.standard_normal(300)
+    y = np.zeros(300)
+    for k in range(1, 300):
+        y[k] = 0.5 * y[k - 1] + u[k - 1] + 0.1 * u[k - 1] ** 2
+    model = NARX(1, 1, 2).fit(IDData(y, u))
+    rec = RecursiveNARX(model)
+    merged = IDData(y[:150], u[:150]).merge(IDData(y[150:], u[150:]))
+    with pytest.raises(ValueError, match="y must be one experiment.*merged record of 2"):
+        rec.run(merged)

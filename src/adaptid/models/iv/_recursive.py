@@ -334,6 +334,9 @@ class RecursiveIV(StateFileMethods):
         from .._iddata import as_signals
 
         yy, uu, data = as_signals(y, u)
+        if getattr(data, "n_experiments", 1) > 1:  # the instrument simulation would run across
+            raise param_error("y", "one experiment (run each: data.experiment(k))",
+                              f"<a merged record of {data.n_experiments} experiments>")
         yy = as_float_array(yy, "y", ndim=1)
         U = self._inputs(uu, yy.shape[0])
         theta, yhat, x, Z, status = self._advance(yy, U)

@@ -271,6 +271,9 @@ class RecursiveNARX(StateFileMethods):
                                       f"<tuple of {len(y)}>", exc=TypeError)
                 y, u = y
             rec = IDData(y, u)
+        if getattr(rec, "n_experiments", 1) > 1:  # the lag buffers would run across them
+            raise param_error("y", "one experiment (run each: data.experiment(k))",
+                              f"<a merged record of {rec.n_experiments} experiments>")
         if (rec.n_outputs, rec.n_inputs) != (self._p, self._m):
             raise param_error("y", f"a record with {self._p} output(s) and {self._m} input(s)",
                               f"<{rec.n_outputs} outputs, {rec.n_inputs} inputs>")
