@@ -262,3 +262,14 @@ def test_which_runs_go_through_the_object(record, monkeypatch):
         seen.clear()
         run_json("fit", path, "--y", "y", *opts)
         assert seen == want, opts
+
+
+def test_resume_of_a_python_streaming_object_is_refused_in_one_line(record, tmp_path):
+    path, y, u = record
+    state = tmp_path / "obj.npz"
+    obj = RecursiveARX(2, 2, 1, start="filled")
+    obj.run(y[:100], u[:100, 0])
+    obj.save_state(state)
+    r = invoke("fit", path, "--y", "y", "--u", "u", "--arx", "2,2,1", "--resume", state)
+    assert r.exit_code == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert "RecursiveARX" in r.stderr and "load_state" in r.stderr

@@ -29,9 +29,16 @@ def _load_resume(path):
     from adaptid.estimators._statefile import load_state_labelled
 
     try:
-        return load_state_labelled(path)
+        est, labels = load_state_labelled(path)
     except StateFileError as err:
         raise CLIError(f"--resume: {err}") from None
+    kind = type(est).__name__
+    if kind.startswith("Recursive"):  # a streaming model object saved from Python
+        raise CLIError(f"--resume {path}: a {kind} state (saved from Python); adaptid fit "
+                       "resumes the states its --save-state writes (the estimator, labelled "
+                       f"with the model) or an estimator's (RLS, ...); continue a {kind} in "
+                       f"Python ({kind}.load_state)")
+    return est, labels
 
 
 def _labels(structure: Structure, problem: Problem) -> dict:
