@@ -335,8 +335,15 @@ def run_chunked(est, Phi, y, *, n_chunks=200, advance=None):
 
 
 def fit_equation(title, names, Phi, y, index, spec: MethodSpec, *, nan_policy="raise",
-                 est=None, n_chunks=200, advance=None, want_cusum=False) -> EquationFit:
-    """Estimate one regression with the method of ``spec`` (or continue ``est``)."""
+                 est=None, n_chunks=200, advance=None, want_cusum=False,
+                 runner=None) -> EquationFit:
+    """Estimate one regression with the method of ``spec`` (or continue ``est``).
+
+    ``runner(est, n_chunks=, advance=)``, if given, runs the estimator instead of
+    :func:`run_chunked` over ``(Phi, y)`` and returns what it returns (the
+    streaming model objects of ``--arx``/``--ar``/``--fir``, see ``_modelfit``);
+    ``Phi`` and ``y`` are then the same regression, for the statistics.
+    """
     N, n = Phi.shape
     caught = []
     with warnings.catch_warnings(record=True) as rec:
@@ -349,8 +356,9 @@ def fit_equation(title, names, Phi, y, index, spec: MethodSpec, *, nan_policy="r
                 est = spec.make(n, nan_policy)
             start_updates = est.n_updates
             try:
-                th, err, skipped, ends, Ps, rebuilds = run_chunked(
-                    est, Phi, y, n_chunks=n_chunks, advance=advance)
+                run = runner or (lambda e, **kw: run_chunked(e, Phi, y, **kw))
+                th, err, skipped, ends, Ps, rebuilds = run(est, n_chunks=n_chunks,
+                                                           advance=advance)
             except ValueError as e:
                 raise CLIError(f"{title}: {e}") from None
             warm = min(10 * n, N // 2) if (fresh or start_updates == 0) else 0

@@ -29,23 +29,36 @@ def _load_resume(path):
     from adaptid.estimators._statefile import load_state_labelled
 
     try:
-        return load_state_labelled(path)
+        est, labels = load_state_labelled(path)
     except StateFileError as err:
         raise CLIError(f"--resume: {err}") from None
+    kind = type(est).__name__
+    if kind.startswith("Recursive"):  # a streaming model object saved from Python
+        raise CLIError(f"--resume {path}: a {kind} state (saved from Python); adaptid fit "
+                       "resumes the states its --save-state writes (the estimator, labelled "
+                       f"with the model) or an estimator's (RLS, ...); continue a {kind} in "
+                       f"Python ({kind}.load_state)")
+    return est, labels
 
 
 def _labels(structure: Structure, problem: Problem) -> dict:
     """What a state saved by ``fit`` means: the model, the output and the regressors."""
     title, names = problem.equations[0][0], problem.equations[0][1]
-    return {"saved_by": "adaptid fit", "model": problem.kind, "output": str(structure.y or title),
-            "regressors": [str(n) for n in names]}
+    labels = {"saved_by": "adaptid fit", "model": problem.kind,
+              "output": str(structure.y or title), "regressors": [str(n) for n in names]}
+    if structure.is_model:  # the names of --arx 2,2,1 and 2,2,3 are the same: nk is not
+        labels["orders"] = ",".join(map(str, structure.orders))
+    return labels
 
 
 def _check_labels(labels, want: dict, resume) -> None:
     """Refuse to resume a state saved for another model, output or regressor order."""
     if labels is None or labels.get("saved_by") != "adaptid fit":
         return  # saved from Python: only the parameter count can be checked
-    for key, what in (("model", "model"), ("output", "output"), ("regressors", "regressors")):
+    for key, what in (("model", "model"), ("output", "output"), ("regressors", "regressors"),
+                      ("orders", f"--{want['model']} orders")):
+        if key == "orders" and (key not in labels or key not in want):
+            continue  # saved before the orders were labelled (or a run without orders)
         have, given = labels.get(key), want[key]
         if have != given:
             show = (lambda v: ",".join(v) if isinstance(v, list) else str(v))
@@ -158,7 +171,7 @@ def _run_fit_locked(data, structure, spec, *, nan, out, save_state, resume, outp
     want_cusum = out is not None and problem.kind not in PSEUDO_LINEAR
     total = sum(len(eq[3]) for eq in problem.equations)
     fits, fitted_models = [], {}
-    from ._modelfit import fit_model_equation, uses_model
+    from ._modelfit import fit_model_equation, stream_runner, uses_model, uses_stream
 
     with output.progress(total, f"fitting ({spec.resolved})") as advance:
         for title, names, Phi, y, index in problem.equations:
@@ -172,9 +185,12 @@ def _run_fit_locked(data, structure, spec, *, nan, out, save_state, resume, outp
                 fitted_models[f.title] = model
                 fits.append(f)
                 continue
+            # --arx/--ar/--fir with a recursive method: the streaming object on the estimator
+            runner = stream_runner(problem, structure) \
+                if uses_stream(problem, structure, spec) else None
             fits.append(fit_equation(title, names, Phi, y, index, spec, nan_policy=policy,
                                      est=est0, n_chunks=N_CHUNKS, advance=advance,
-                                     want_cusum=want_cusum))
+                                     want_cusum=want_cusum, runner=runner))
     for f in fits:
         for w in f.warnings:
             output.warn(f"{f.title}: {w}")

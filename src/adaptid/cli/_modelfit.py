@@ -13,9 +13,16 @@ r"""``adaptid fit`` with the model objects: model fits, validation, summary tabl
   :class:`~adaptid.models.RecursiveARMAX`, :class:`~adaptid.models.RecursiveOE`,
   :class:`~adaptid.models.RecursiveBJ`, ``start="filled"``, so equal to the
   models' ``fit_recursive``; the estimator built by :func:`adaptid.estimator`
-  is read for its algorithm and options, lms and nlms included). ``--arx``/``--fir``/``--ar`` with a
-  recursive method run the estimator on the model's fixed regressors (the
-  same numbers as ``ARX.fit_recursive``).
+  is read for its algorithm and options, lms and nlms included).
+* ``--arx`` / ``--fir`` / ``--ar`` with a recursive method run the streaming
+  objects too (:func:`stream_runner`): :class:`~adaptid.models.RecursiveARX`
+  (FIR: ``na = 0``) or :class:`~adaptid.models.RecursiveAR` with
+  ``start="filled"``, on the estimator :func:`adaptid.estimator` built from
+  the options (or the one ``--resume`` read), so equal to the models'
+  ``fit_recursive`` and to that estimator run on the model's regressors.
+  ``--intercept`` keeps the estimator on the regressor matrix with a column
+  of ones (:func:`uses_stream`: the objects, as MATLAB's ``recursiveARX``,
+  have no constant term).
 * Parameter names are the model objects' (``a1``, ``b0``, ``b1_0``, ``c1``, ``f1``).
 * ``--validate`` / the report's figures use :func:`adaptid.models.compare`
   (simulation for input–output models, one-step prediction for AR/ARMA) and
@@ -37,7 +44,8 @@ from ._engine import EquationFit, MethodSpec
 from ._errors import CLIError
 
 __all__ = ["fit_model_equation", "validation_model", "validate", "summaries", "tracks_frame",
-           "default_method", "uses_model", "model_object", "n_params", "RECURSIVE_FLAGS"]
+           "default_method", "uses_model", "model_object", "n_params", "RECURSIVE_FLAGS",
+           "uses_stream", "stream_runner", "arx_orders", "arx_stream"]
 
 RESID_ALPHA = 0.01   # MATLAB's resid band (99 %), models.resid's default
 MAX_LAG = 25         # MATLAB's resid default
@@ -75,6 +83,98 @@ def uses_model(problem, structure, spec) -> bool:
         return True
     return (structure.is_model and spec.resolved == "batch" and not structure.intercept
             and problem.nan_rows == 0 and problem.est_data is not None)
+
+
+#: the model options whose recursive fit runs RecursiveARX / RecursiveAR (fixed regressors)
+STREAM_KINDS = ("arx", "ar", "fir")
+
+
+def uses_stream(problem, structure, spec) -> bool:
+    """Whether ``--arx``/``--ar``/``--fir`` run the streaming object (a recursive method).
+
+    Not with ``--intercept``: RecursiveARX, as MATLAB's ``recursiveARX``, has no
+    constant term, so the estimator runs on the model's regressors and a
+    column of ones. (A record with missing values never gets here: the
+    model options need complete records, ``--nan skip`` or not; the last two
+    conditions only say what the object needs.)
+    """
+    return (problem.kind in STREAM_KINDS and spec.resolved != "batch"
+            and not structure.intercept and problem.nan_rows == 0
+            and problem.est_data is not None)
+
+
+def arx_orders(kind, s) -> tuple:
+    """``(na, nb, nk)`` of ``--arx``, ``--ar`` (nb = 0) or ``--fir`` (na = 0)."""
+    return s.arx if kind == "arx" else (s.ar[0], 0, 1) if kind == "ar" else (0, *s.fir)
+
+
+def arx_stream(kind, s, est, *, n_inputs, dt=1.0):
+    """The streaming object of ``--arx``/``--ar``/``--fir`` running on ``est`` itself.
+
+    :class:`~adaptid.models.RecursiveAR` (``--ar``) or
+    :class:`~adaptid.models.RecursiveARX` (FIR: ``na = 0``; the same nb, nk for
+    every input), ``start="filled"`` with empty lag buffers: its first update
+    is at the first sample whose lags are all measured, the first row of
+    :func:`adaptid.models.arx_regressors`.
+    """
+    from adaptid import models
+
+    na, nb, nk = arx_orders(kind, s)
+    try:
+        if kind == "ar":
+            obj = models.RecursiveAR(na, start="filled", dt=dt)
+        elif n_inputs == 1:
+            obj = models.RecursiveARX(na, nb, nk, start="filled", dt=dt)
+        else:
+            obj = models.RecursiveARX(na, [nb] * n_inputs, [nk] * n_inputs, start="filled",
+                                      dt=dt)
+        return obj._run_on(est)
+    except ValueError as e:
+        raise CLIError(f"--{kind}: {e}") from None
+
+
+def stream_runner(problem, s):
+    """The runner of :func:`._engine.fit_equation` for ``--arx``/``--ar``/``--fir``.
+
+    Runs :func:`arx_stream` over the estimation record in the chunks of
+    :func:`._engine.run_chunked` (the same regression rows end each chunk, P is
+    read there), each chunk one :meth:`~adaptid.models.RecursiveARX.run`
+    (equal bit for bit to one run over the record). Returns what
+    ``run_chunked`` returns; the errors are the object's ``y - yhat``.
+    """
+    data = problem.est_data
+    y = np.ascontiguousarray(data.y, dtype=np.float64).reshape(-1)
+    U = None if problem.kind == "ar" else np.ascontiguousarray(data.inputs, dtype=np.float64)
+    dt = problem.data.dt if problem.data is not None else 1.0
+
+    def run(est, *, n_chunks=200, advance=None):
+        from ._engine import _cov_or_nan
+
+        obj = arx_stream(problem.kind, s, est, n_inputs=0 if U is None else U.shape[1], dt=dt)
+        first = min(obj._s, len(y))          # start="filled": no update before this sample
+        N, n = len(y) - first, est.n_params
+        K = max(1, min(int(n_chunks), N))
+        edges = np.unique(np.linspace(0, N, K + 1).round().astype(np.int64))
+        thetas, errors, Ps, ends = [], [], [], []
+        lo = 0
+        for a, b in zip(edges[:-1], edges[1:]):
+            hi = first + int(b)
+            res = obj.run(y[lo:hi]) if U is None else obj.run(y[lo:hi], U[lo:hi])
+            keep = slice(max(first - lo, 0), None)
+            thetas.append(res.theta[keep])
+            errors.append(y[lo:hi][keep] - res.yhat[keep])
+            Ps.append(_cov_or_nan(est))
+            ends.append(int(b) - 1)
+            lo = hi
+            if advance is not None:
+                advance(int(b - a))
+        if not thetas:
+            return (np.empty((0, n)), np.empty(0), np.zeros(0, bool), np.empty(0, np.int64),
+                    np.empty((0, n, n)), 0)
+        return (np.concatenate(thetas), np.concatenate(errors), np.zeros(N, dtype=bool),
+                np.asarray(ends, dtype=np.int64), np.stack(Ps), 0)
+
+    return run
 
 
 def model_object(kind, s, dt):

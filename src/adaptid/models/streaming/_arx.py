@@ -280,6 +280,22 @@ class RecursiveARX(StateFileMethods):
         """The core estimator (read it; :meth:`step` and :meth:`run` update it)."""
         return self._est
 
+    def _run_on(self, estimator):
+        """Run on ``estimator`` itself (not a copy, not reset: its θ, P and counts as they
+        are), with its algorithm and options; the lag buffers and the sample count stay
+        this object's. For the CLI, whose options build, or whose ``--resume`` file
+        holds, that estimator (``fit --arx/--ar/--fir`` with a recursive method)."""
+        from ...estimators._factory import method_of
+
+        core = method_of(estimator)   # TypeError for anything but the factory's estimators
+        if estimator.n_params != self.n_params:
+            raise param_error("estimator", f"an estimator with n_params={self.n_params}",
+                              f"<n_params={estimator.n_params}>")
+        self.method = {"rls": "forgetting", "window": "forgetting", "kalman": "kalman",
+                       "lms": "gradient", "nlms": "ngradient"}[core]
+        self._est = estimator
+        return self
+
     @property
     def theta(self):
         """The current estimate, shape (n,) (a copy)."""
