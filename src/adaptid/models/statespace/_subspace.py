@@ -7,7 +7,7 @@ import numpy as np
 from ..._lazy import lazy
 from ..._validation import check_choice, check_int, param_error
 from ._model import StateSpaceModel
-from ._dask import dask_experiments, is_dask, lq_factor_dask
+from ._dask import dask_experiments, is_dask, lq_factor_dask, one_step_errors
 from ._signals import experiments, recurse
 
 sla = lazy("scipy.linalg")  # imported on first use, as scipy.signal elsewhere
@@ -241,14 +241,14 @@ def _gap_order(sv, n_max):
 
 def _aic(model, ex, i, feedthrough):
     """AIC of the one-step prediction errors (the first ``i`` samples of each experiment left out)."""
-    E = []
-    for Y, U in zip(ex.Y, ex.U):
-        E.append((Y - model.predict(Y, U, k=1))[i:])
-    E = np.vstack(E)
-    N, p = E.shape
-    n, m = model.order, ex.m
+    if is_dask(ex.Y):            # a Dask record: the predictor run chunk by chunk
+        G, N = one_step_errors(model, ex, i, CHUNK_ROWS)
+    else:
+        E = np.vstack([(Y - model.predict(Y, U, k=1))[i:] for Y, U in zip(ex.Y, ex.U)])
+        G, N = E.T @ E, E.shape[0]
+    n, m, p = model.order, ex.m, ex.p
     d = n * (2 * p + m) + (p * m if feedthrough else 0)
-    sign, logdet = np.linalg.slogdet(E.T @ E / N)
+    sign, logdet = np.linalg.slogdet(G / N)
     return float(N * logdet + 2 * d) if sign > 0 else -np.inf
 
 
@@ -384,9 +384,6 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     method = check_choice(method, "method", ("moesp", "n4sid", "cva"))
     on_dask = is_dask(data)
     ex = dask_experiments(data) if on_dask else experiments(data)
-    if on_dask and order is not None and np.ndim(order) != 0:
-        raise param_error("order", "an integer or None for Dask data (a range compares the "
-                          "orders' prediction errors in memory)", order)
     p, m = ex.p, ex.m
     guess = 10 if order is None else max(np.ravel(order).tolist() or [1])
     i = (max(10, 2 * int(guess)) if horizon is None
