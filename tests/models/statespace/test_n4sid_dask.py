@@ -180,3 +180,28 @@ def test_dask_refusals():
     pdf = pd.DataFrame({"y": y[:, 1], "u1": u[:, 0], "u2": u[:, 1]}, index=t)
     with pytest.raises(ValueError, match="index of y.* must be a regular time axis for Dask"):
         n4sid(dd.from_pandas(pdf, npartitions=3), 2, horizon=5)
+
+
+def test_dask_covariance_and_summary_equal_in_memory():
+    # the parameter covariance (two chunked passes: errors, then sensitivities) and the
+    # bands derived from it; the summary's fit % (one chunked pass) on one experiment
+    exps = _pieces([1300, 700], 8)
+    dexps = [(da.from_array(y, chunks=(256, 2)), da.from_array(u, chunks=(100, 2)))
+             for y, u in exps]
+    ref = n4sid(exps, 3, horizon=6, feedthrough=True)
+    got = n4sid(dexps, 3, horizon=6, feedthrough=True)
+    # 1e-8 as above: the sums and QR reductions of the same rows are taken chunk by chunk
+    w = np.array([0.1, 0.7, 2.0])
+    fr, fg = ref.freqresp(w), got.freqresp(w)
+    np.testing.assert_allclose(fg.magnitude_sd, fr.magnitude_sd, rtol=1e-8)
+    np.testing.assert_allclose(fg.phase_sd, fr.phase_sd, rtol=1e-8)
+    assert np.all(fr.magnitude_sd > 0)
+    np.testing.assert_allclose(got.step_response(15).sd, ref.step_response(15).sd, rtol=1e-8)
+    one_ref = n4sid(exps[0], 3, horizon=6)
+    one = n4sid(dexps[0], 3, horizon=6)
+    assert one._fit_data is None
+    s_ref, s_got = one_ref.summary().stats, one.summary().stats
+    fits = [k for k in s_ref if k.startswith("fit %")]
+    assert len(fits) == 4 and [k for k in s_got if k.startswith("fit %")] == fits
+    np.testing.assert_allclose([s_got[k] for k in fits], [s_ref[k] for k in fits], rtol=1e-9)
+    np.testing.assert_allclose(one.cov.diagonal().sum(), one_ref.cov.diagonal().sum(), rtol=1e-8)

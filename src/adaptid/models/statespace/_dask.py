@@ -1,14 +1,19 @@
 r"""n4sid on Dask: the R factor of the block-Hankel data matrix by a tall-skinny QR.
 
-A record larger than memory comes as Dask arrays (or a Dask DataFrame).
-The transposed data matrix Hᵀ (one row per Hankel column) is formed chunk
-by chunk of the record: the Hankel rows q = s … e − 1 of a chunk need the
-samples s … e + 2i − 2, i.e. the chunk and the first 2i − 1 samples of the
-next one (the overlap). Dask's tall-skinny QR (``dask.array.linalg.tsqr``,
-as :func:`adaptid.fleet.lstsq` uses) reduces the blocks of Hᵀ to its R
-factor without forming Q, with one block of Hᵀ per task in memory. The rest
-of :func:`~adaptid.models.n4sid` (B, D, x0 and K) reads the record chunk by
-chunk in order.
+Records larger than memory come as Dask arrays (or Dask DataFrames): one
+experiment or a list of them. One pass over the chunks finds the rows with
+a NaN, which split a record into runs of complete samples (slices of the
+Dask arrays, each an experiment, as in memory). The transposed data matrix
+Hᵀ (one row per Hankel column) is formed chunk by chunk inside each
+experiment: the Hankel rows q = s … e − 1 of a chunk need the samples
+s … e + 2i − 2, i.e. the chunk and the first 2i − 1 samples after it (the
+overlap). Dask's tall-skinny QR (``dask.array.linalg.tsqr``, as
+:func:`adaptid.fleet.lstsq` uses) reduces the stacked blocks of all
+experiments to the R factor of the stacked Hᵀ without forming Q, with one
+block of Hᵀ per task in memory. dt comes from a Dask frame's time index,
+read by Dask reductions. The rest of :func:`~adaptid.models.n4sid` (B, D,
+x0, K, an order range's AIC, the covariance) reads the record chunk by
+chunk in order (:mod:`._passes`).
 """
 
 from __future__ import annotations
@@ -283,32 +288,3 @@ def lq_factor_dask(ex, i, hankel_chunk):
             shape=(sum(rows), c), dtype=np.float64))
     _, R = da.linalg.tsqr(da.concatenate(blocks, axis=0))
     return np.asarray(R.compute()).T / np.sqrt(j_total), j_total
-
-
-def one_step_errors(model, ex, skip, rows):
-    r"""Σ εε\ :sup:`T` and the count of the one-step prediction errors, chunk by chunk.
-
-    The Kalman predictor of :meth:`StateSpaceModel.predict` (k = 1, zero
-    initial state) run over each experiment ``rows`` samples at a time, its
-    state :math:`\hat x_{t+1|t} = \bar A\hat x_{t|t-1} + (B - KD)u_t + Ky_t`
-    (:math:`\bar A = A - KC`) carried from one chunk to the next; the first
-    ``skip`` samples of each experiment are left out of the sums.
-    """
-    from ._signals import recurse
-
-    A, B, C, D, K = model.A, model.B, model.C, model.D, model.K
-    Abar, Bbar = A - K @ C, B - K @ D
-    p = C.shape[0]
-    G, N = np.zeros((p, p)), 0
-    for Y, U in zip(ex.Y, ex.U):
-        x = np.zeros(A.shape[0])
-        for a in range(0, Y.shape[0], rows):
-            Yc = np.asarray(Y[a:a + rows], dtype=np.float64)
-            Uc = np.asarray(U[a:a + rows], dtype=np.float64)
-            inj = Uc @ Bbar.T + Yc @ K.T
-            X = recurse(Abar, inj, x)
-            x = Abar @ X[-1] + inj[-1]
-            E = (Yc - X @ C.T - Uc @ D.T)[max(skip - a, 0):]
-            G += E.T @ E
-            N += E.shape[0]
-    return G, N

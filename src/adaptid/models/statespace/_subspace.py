@@ -7,7 +7,8 @@ import numpy as np
 from ..._lazy import lazy
 from ..._validation import check_choice, check_int, param_error
 from ._model import StateSpaceModel
-from ._dask import dask_experiments, is_dask, lq_factor_dask, one_step_errors
+from ._dask import dask_experiments, is_dask, lq_factor_dask
+from ._passes import one_step_errors
 from ._signals import experiments, recurse
 
 sla = lazy("scipy.linalg")  # imported on first use, as scipy.signal elsewhere
@@ -409,7 +410,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
         mdl = StateSpaceModel(A, B, C, D, K, noise_cov=Se, dt=ex.dt, y_names=ex.y_names,
                               u_names=ex.u_names, singular_values=sv,
                               info=dict(info, x0=x0))
-        mdl._fit_data = None if on_dask else ex
+        mdl._fit_data, mdl._fit_dask = (None, ex) if on_dask else (ex, None)
         models.append(mdl)
     if len(models) == 1:
         return models[0]
