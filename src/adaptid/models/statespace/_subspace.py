@@ -318,13 +318,21 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
         complete samples between them, each a separate experiment (runs
         shorter than 2·horizon are left out; MATLAB's ``misdata``, which
         fills the gaps from a model, is the alternative). At least one
-        input (time series: not yet). Dask data (a ``(y, u)`` pair of
-        Dask arrays, Series or DataFrames, or one Dask DataFrame whose
-        first column is the output) is one experiment larger than memory:
-        the R factor of the block-Hankel matrix comes from Dask's
-        tall-skinny QR over blocks formed per chunk (with an overlap of
-        2·horizon − 1 samples), the rest from one ordered pass over the
-        chunks; ``order`` is then an integer or None.
+        input (time series: not yet).
+
+        Records larger than memory: Dask data, one experiment (a ``(y, u)``
+        pair of Dask arrays, Series or DataFrames, or one Dask DataFrame
+        whose first column is the output) or a list of them. The R factor
+        of the stacked block-Hankel matrices of all experiments comes from
+        one Dask tall-skinny QR over blocks formed per chunk inside each
+        experiment (each chunk with the 2·horizon − 1 samples after it);
+        NaN gaps split the records as in memory (found by a pass over the
+        chunks); the rest (B, D, x0, K, the AIC of an order range, and on
+        first use the covariance and the summary's fit %) from ordered
+        passes over the chunks. ``dt`` comes from a Dask frame's time
+        index (the rule of :class:`~adaptid.IDData`, which must find it
+        regular), else 1; names from the frames' columns. The result equals
+        the in-memory one on the same data to rounding.
     order : int, sequence of int, or None
         n. None: the index of the largest drop of the logarithm of the
         singular values among the first (horizon − 1)·p + 1 (a noise-free
