@@ -164,6 +164,17 @@ def test_dask_dt_and_names_from_a_time_index():
     _assert_same(got, ref)
 
 
+def test_dask_list_with_an_iddata():
+    # an IDData in a list of Dask records is one experiment of it; its dt is the first
+    exps = _pieces([900, 1100], 9)
+    first = IDData(exps[0][0], exps[0][1], 0.5, y_names=["a", "b"], u_names=["p", "q"])
+    ref = n4sid([first, exps[1]], 3, horizon=6, method="cva")
+    got = n4sid([first, (da.from_array(exps[1][0], chunks=150),
+                         da.from_array(exps[1][1], chunks=150))], 3, horizon=6, method="cva")
+    assert ref.dt == 0.5 and ref.y_names == ("a", "b")
+    _assert_same(got, ref)
+
+
 def test_dask_refusals():
     y, u = _record(1500, 2)
     y[700, 0] = np.inf
