@@ -102,6 +102,7 @@ class StateSpaceModel(StateSpacePresentation):
                                 else np.asarray(singular_values, dtype=np.float64))
         self.info = dict(info or {})
         self._fit_data = None  # Experiments the model was estimated from (for summary)
+        self._fit_dask = None  # the same when they are Dask arrays (read chunk by chunk)
         self._cov_tried = False   # cov computed from _fit_data once, on first use
         self.cov = cov
 
@@ -126,12 +127,14 @@ class StateSpaceModel(StateSpacePresentation):
 
         Models from :func:`~adaptid.models.n4sid` and :func:`~adaptid.models.okid`
         compute it on first use from their estimation data
-        (:meth:`estimate_cov`, the predictor's initial state estimated);
+        (:meth:`estimate_cov`, the predictor's initial state estimated; a
+        Dask record is read chunk by chunk, twice);
         a model built from matrices has none unless ``cov`` was given.
         """
-        if self._cov is None and self._fit_data is not None and not self._cov_tried:
+        data = self._fit_data if self._fit_data is not None else self._fit_dask
+        if self._cov is None and data is not None and not self._cov_tried:
             self._cov_tried = True
-            self._cov = self.estimate_cov(self._fit_data)
+            self._cov = self.estimate_cov(data)
         return self._cov
 
     @cov.setter

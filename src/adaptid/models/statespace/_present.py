@@ -80,17 +80,27 @@ class StateSpacePresentation:
         """Fit % (simulation from the estimated x0, one-step prediction) on the estimation data."""
         from ..._teststats import fit_percent
 
-        ex = self._fit_data
+        ex = self._fit_data if self._fit_data is not None else getattr(self, "_fit_dask", None)
         if ex is None or len(ex.Y) != 1:
             return {}
         Y, U = ex.Y[0], ex.U[0]
+        if self._fit_data is None:                   # Dask: one pass over the chunks
+            from ._passes import fit_percent_chunked
+
+            fit_s, fit_p, varies = fit_percent_chunked(self, Y, U)
+        else:
+            ysim = self.simulate((Y, U), x0="estimate")
+            y1 = self.predict(Y, U, k=1)
+            varies = np.ptp(Y, axis=0) > 0
+            fit_s = [fit_percent(Y[:, i], ysim[:, i]) if varies[i] else None
+                     for i in range(Y.shape[1])]
+            fit_p = [fit_percent(Y[:, i], y1[:, i]) if varies[i] else None
+                     for i in range(Y.shape[1])]
         out = {}
-        ysim = self.simulate((Y, U), x0="estimate")
-        y1 = self.predict(Y, U, k=1)
         for i, name in enumerate(self.y_names):
-            if np.ptp(Y[:, i]) > 0:
-                out[f"fit % {name} (simulation, x0 estimated)"] = fit_percent(Y[:, i], ysim[:, i])
-                out[f"fit % {name} (1-step prediction)"] = fit_percent(Y[:, i], y1[:, i])
+            if varies[i]:
+                out[f"fit % {name} (simulation, x0 estimated)"] = float(fit_s[i])
+                out[f"fit % {name} (1-step prediction)"] = float(fit_p[i])
         return out
 
     def summary(self):

@@ -8,6 +8,7 @@ from ..._lazy import lazy
 from ..._validation import check_choice, check_int, param_error
 from ._model import StateSpaceModel
 from ._dask import dask_experiments, is_dask, lq_factor_dask
+from ._passes import one_step_errors
 from ._signals import experiments, recurse
 
 sla = lazy("scipy.linalg")  # imported on first use, as scipy.signal elsewhere
@@ -241,14 +242,14 @@ def _gap_order(sv, n_max):
 
 def _aic(model, ex, i, feedthrough):
     """AIC of the one-step prediction errors (the first ``i`` samples of each experiment left out)."""
-    E = []
-    for Y, U in zip(ex.Y, ex.U):
-        E.append((Y - model.predict(Y, U, k=1))[i:])
-    E = np.vstack(E)
-    N, p = E.shape
-    n, m = model.order, ex.m
+    if is_dask(ex.Y):            # a Dask record: the predictor run chunk by chunk
+        G, N = one_step_errors(model, ex, i, CHUNK_ROWS)
+    else:
+        E = np.vstack([(Y - model.predict(Y, U, k=1))[i:] for Y, U in zip(ex.Y, ex.U)])
+        G, N = E.T @ E, E.shape[0]
+    n, m, p = model.order, ex.m, ex.p
     d = n * (2 * p + m) + (p * m if feedthrough else 0)
-    sign, logdet = np.linalg.slogdet(E.T @ E / N)
+    sign, logdet = np.linalg.slogdet(G / N)
     return float(N * logdet + 2 * d) if sign > 0 else -np.inf
 
 
@@ -317,13 +318,21 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
         complete samples between them, each a separate experiment (runs
         shorter than 2·horizon are left out; MATLAB's ``misdata``, which
         fills the gaps from a model, is the alternative). At least one
-        input (time series: not yet). Dask data (a ``(y, u)`` pair of
-        Dask arrays, Series or DataFrames, or one Dask DataFrame whose
-        first column is the output) is one experiment larger than memory:
-        the R factor of the block-Hankel matrix comes from Dask's
-        tall-skinny QR over blocks formed per chunk (with an overlap of
-        2·horizon − 1 samples), the rest from one ordered pass over the
-        chunks; ``order`` is then an integer or None.
+        input (time series: not yet).
+
+        Records larger than memory: Dask data, one experiment (a ``(y, u)``
+        pair of Dask arrays, Series or DataFrames, or one Dask DataFrame
+        whose first column is the output) or a list of them. The R factor
+        of the stacked block-Hankel matrices of all experiments comes from
+        one Dask tall-skinny QR over blocks formed per chunk inside each
+        experiment (each chunk with the 2·horizon − 1 samples after it);
+        NaN gaps split the records as in memory (found by a pass over the
+        chunks); the rest (B, D, x0, K, the AIC of an order range, and on
+        first use the covariance and the summary's fit %) from ordered
+        passes over the chunks. ``dt`` comes from a Dask frame's time
+        index (the rule of :class:`~adaptid.IDData`, which must find it
+        regular), else 1; names from the frames' columns. The result equals
+        the in-memory one on the same data to rounding.
     order : int, sequence of int, or None
         n. None: the index of the largest drop of the logarithm of the
         singular values among the first (horizon − 1)·p + 1 (a noise-free
@@ -384,9 +393,6 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
     method = check_choice(method, "method", ("moesp", "n4sid", "cva"))
     on_dask = is_dask(data)
     ex = dask_experiments(data) if on_dask else experiments(data)
-    if on_dask and order is not None and np.ndim(order) != 0:
-        raise param_error("order", "an integer or None for Dask data (a range compares the "
-                          "orders' prediction errors in memory)", order)
     p, m = ex.p, ex.m
     guess = 10 if order is None else max(np.ravel(order).tolist() or [1])
     i = (max(10, 2 * int(guess)) if horizon is None
@@ -412,7 +418,7 @@ def n4sid(data, order=None, *, method="moesp", horizon=None, feedthrough=False):
         mdl = StateSpaceModel(A, B, C, D, K, noise_cov=Se, dt=ex.dt, y_names=ex.y_names,
                               u_names=ex.u_names, singular_values=sv,
                               info=dict(info, x0=x0))
-        mdl._fit_data = None if on_dask else ex
+        mdl._fit_data, mdl._fit_dask = (None, ex) if on_dask else (ex, None)
         models.append(mdl)
     if len(models) == 1:
         return models[0]

@@ -21,6 +21,7 @@ from ..._lazy import lazy
 from ..._kernels.layers._statespace import predictor_sensitivity
 from ..frequency._response import polar_sd
 from ..frequency._roots import Roots, roots_from_gradients
+from . import _passes as passes
 from ._signals import recurse
 
 sla = lazy("scipy.linalg")
@@ -103,6 +104,28 @@ def _sensitivities(model, Y, U, x0):
     return E, J
 
 
+def _whitened_r(model, ex, x0s, free, Q):
+    r"""(Λ̂, R of :math:`\tilde JQ`) in memory; R is None when Λ̂ is singular."""
+    n, p = model.order, model.n_outputs
+    d = free.size - n * len(ex.Y)
+    errs, jacs = [], []
+    for e, (Y, U, xs) in enumerate(zip(ex.Y, ex.U, x0s)):
+        E, Jb = _sensitivities(model, Y, U, xs)
+        J = np.zeros((Y.shape[0], p, free.size))
+        J[:, :, :d] = Jb[:, :, :d]
+        J[:, :, d + e * n: d + (e + 1) * n] = Jb[:, :, d:]
+        errs.append(E)
+        jacs.append(J)
+    E = np.vstack(errs)
+    Lam = E.T @ E / E.shape[0]
+    w, U_ = np.linalg.eigh((Lam + Lam.T) / 2)
+    if w[-1] <= 0 or w[0] <= 1e-14 * w[-1]:
+        return Lam, None
+    J = np.concatenate(jacs).reshape(-1, p, free.size)[:, :, free]
+    J = np.einsum("ij,kjc->kic", (U_ / np.sqrt(w)).T, J).reshape(-1, int(free.sum()))
+    return Lam, sla.qr(J @ Q, mode="r", check_finite=False)[0][: Q.shape[1]]
+
+
 def prediction_error_cov(model, ex, *, x0="estimate", feedthrough=True):
     r"""First-order covariance of θ = [A, B, C, D, K] from the one-step prediction errors.
 
@@ -143,33 +166,25 @@ def prediction_error_cov(model, ex, *, x0="estimate", feedthrough=True):
     oB, oC, oD, oK = _offsets(n, m, p)
     nE = len(ex.Y)
     est = x0 == "estimate"
-    x0s = [_predictor_x0(model, Y, U) if est else np.zeros(n) for Y, U in zip(ex.Y, ex.U)]
-    errs, jacs = [], []
-    for e, (Y, U, xs) in enumerate(zip(ex.Y, ex.U, x0s)):
-        E, Jb = _sensitivities(model, Y, U, xs)
-        J = np.zeros((Y.shape[0], p, d + n * nE))
-        J[:, :, :d] = Jb[:, :, :d]
-        J[:, :, d + e * n: d + (e + 1) * n] = Jb[:, :, d:]
-        errs.append(E)
-        jacs.append(J)
-    E = np.vstack(errs)
-    Lam = E.T @ E / E.shape[0]
-    cov = np.zeros((d, d))
-    w, U_ = np.linalg.eigh((Lam + Lam.T) / 2)
-    if w[-1] <= 0 or w[0] <= 1e-14 * w[-1]:      # no prediction error: no uncertainty
-        return cov, Lam
     free = np.ones(d + n * nE, dtype=bool)
     if not feedthrough:
         free[oD:oK] = False
     if not est:
         free[d:] = False
-    J = np.concatenate(jacs).reshape(-1, p, d + n * nE)[:, :, free]
-    J = np.einsum("ij,kjc->kic", (U_ / np.sqrt(w)).T, J).reshape(-1, int(free.sum()))
+    on_dask = any(hasattr(Y, "dask") for Y in ex.Y)     # read chunk by chunk (_passes)
+    x0s = [(passes.predictor_x0(model, Y, U) if on_dask else _predictor_x0(model, Y, U))
+           if est else np.zeros(n) for Y, U in zip(ex.Y, ex.U)]
     V = _similarity(model.A, model.B, model.C, model.K, x0s)[free]
     Uv, sv, _ = np.linalg.svd(V, full_matrices=True)
     r = int(np.sum(sv > 1e-12 * max(sv[0], 1.0))) if sv.size else 0
     Q = Uv[:, r:]                                     # complement of the similarity directions
-    R = sla.qr(J @ Q, mode="r", check_finite=False)[0][: Q.shape[1]]
+    cov = np.zeros((d, d))
+    if on_dask:
+        Lam, R = passes.whitened_r(model, ex, x0s, free, Q)
+    else:
+        Lam, R = _whitened_r(model, ex, x0s, free, Q)
+    if R is None:                                     # no prediction error: no uncertainty
+        return cov, Lam
     _, s, Vt = sla.svd(R, full_matrices=False, check_finite=False)
     keep = s > RCOND * s[0] if s.size else s > 0
     half = Q @ (Vt[keep].T / s[keep])                 # cov = half halfᵀ
