@@ -14,7 +14,7 @@ from ._generate import generate, write
 __all__ = ["to_c", "generate_c"]
 
 
-def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
+def to_c(est, directory, *, name="rls", dtype="float64", offsets=None, nk=0, pending=None):
     r"""Write ``NAME.h`` and ``NAME.c``: the estimator's recursion in C, from its current state.
 
     ``est`` may also be a model: a fitted :class:`~adaptid.models.ARX` /
@@ -148,6 +148,10 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
     True
     """
     from ._model import generate_model, is_model
+    if (nk != 0 or pending is not None) and type(est).__name__ != "FastRLS":
+        from .._validation import param_error
+        raise param_error("nk", "0 (and pending None) except for a FastRLS (the input delay "
+                          "of its delay line)", nk)
     if is_model(est):
         from ._generate import write_texts
         texts = generate_model(est, name=name, dtype=dtype, offsets=offsets)
@@ -161,7 +165,7 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
         return write_narx(est, directory, name=name, dtype=dtype)
     if type(est).__name__ == "FastRLS":  # the delay-line filter: its own generator (issue 38)
         from . import _fastrls
-        return _fastrls.write(est, directory, name, dtype)
+        return _fastrls.write(est, directory, name, dtype, nk, pending)
     if not hasattr(est, "get_state"):
         from .._validation import param_error
         raise param_error("est", "an adaptid RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS",
