@@ -31,15 +31,16 @@ def export_c(state_file: Path, out: Path, name: str = "rls", float32: bool = Fal
 
 
 def write_c(est, out: Path, name: str = "rls", float32: bool = False, option: str = "--out",
-            offsets=None):
+            offsets=None, nk=0, pending=None):
     """Write ``est``'s C files (:func:`adaptid.codegen.to_c`); returns their paths. Errors: CLIError.
 
-    ``est`` may be a model or a streaming model object (``offsets``: its y0, u0)."""
+    ``est`` may be a model or a streaming model object (``offsets``: its y0, u0), or a
+    FastRLS (``nk``, ``pending``: its input delay and the raw inputs not yet in its line)."""
     from adaptid.codegen import to_c
 
     try:
         return to_c(est, out, name=name, dtype="float32" if float32 else "float64",
-                    offsets=offsets)
+                    offsets=offsets, nk=nk, pending=pending)
     except (ValueError, TypeError) as err:
         raise CLIError(str(err)) from None
     except OSError as err:
