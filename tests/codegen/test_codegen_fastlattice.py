@@ -237,7 +237,8 @@ def test_header_documents_the_lattice(tmp_path):
     for needle in ("#define ECHO_N 4", "#define ECHO_NK 2", "#define ECHO_TRACK 1",
                    "phi_k = [v_k, v_(k-1), ..., v_(k-n+1)]", "v_k = u_(k-NK)",
                    "echo_update(s, u, y)", "echo_predict(s, u)", "R theta = z",
-                   "double ubuf[ECHO_NK]", "void echo_theta(const echo_t *s, double theta[ECHO_N]);"):
+                   "double ubuf[ECHO_NK]",
+                   "void echo_theta(const echo_t *s, double theta[ECHO_N]);"):
         assert needle in text, needle
     assert "0.5, -1.0" in c.read_text()
     h, _ = codegen.to_c(adaptid.FastRLS(4, method="lattice", track_theta=False), tmp_path,

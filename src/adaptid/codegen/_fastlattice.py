@@ -66,7 +66,7 @@ typedef struct {
 typedef struct {
     $name_lattice_t lat;
     real x[$UPPER_N];          /* delay line phi = [v_k, ..., v_(k-n+1)] */
-$track_fields$ubuf_field    uint64_t n_updates, n_skipped, n_rescues;  /* the lattice has no rescue */
+$track_fields$ubuf_field    uint64_t n_updates, n_skipped, n_rescues;  /* no rescue: always 0 */
 } $name_t;
 
 void $name_init($name_t *s);
@@ -211,7 +211,7 @@ void $name_theta(const $name_t *s, real theta[$UPPER_N])
 }
 """
 
-_TRACK_FIELDS = """    real R[$UPPER_N][$UPPER_N];    /* square-root information array (upper triangle) */
+_TRACK_FIELDS = """    real R[$UPPER_N][$UPPER_N];  /* square-root information array (upper part) */
     real z[$UPPER_N];          /* R theta = z */
 """
 
@@ -254,8 +254,8 @@ def generate(est, name, dtype, nk, pending):
               "track_fields": _TRACK_FIELDS if track else "",
               "track_fns": _TRACK_FNS if track else "",
               "track_call": "    qr_track(s, y);\n" if track else "",
-              "theta_decl": (f"void {name}_theta(const {name}_t *s, real theta[{name.upper()}_N]);\n"
-                             if track else ""),
+              "theta_decl": (f"void {name}_theta(const {name}_t *s, "
+                             f"real theta[{name.upper()}_N]);\n" if track else ""),
               **delay}
     header = _emit.finish(_subst(_HEADER, values), dtype)
     source = _emit.finish(_subst(_SOURCE, values), dtype)
