@@ -83,7 +83,7 @@ def test_export_c_continues_the_fit(record, tmp_path, method, nk, dtype):
     res = CliRunner().invoke(app, [str(a) for a in (
         "fit", path, "--u", "u", "--y", "y", "--fir", f"{nb},{nk}", "--method", "fastrls",
         "--fastrls-method", method, "--forgetting", lam, "--nan", "skip", "--export-c", cdir,
-        "--c-name", "fir",
+        "--c-name", "fir", "--save-state", tmp_path / "s.npz",
         *(["--float32"] if dtype == "float32" else []), "--json")])
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout)
@@ -109,3 +109,12 @@ def test_export_c_continues_the_fit(record, tmp_path, method, nk, dtype):
     assert np.array_equal(np.isfinite(e_c), ok[CUT:])   # the gap: NaN, skipped
     assert np.max(np.abs(e_c[ok[CUT:]] - ref)) <= tol * np.max(np.abs(ref))
     assert np.max(np.abs(th_c - out["theta"])) <= tol * np.max(np.abs(out["theta"]))
+
+    # adaptid export-c of the state file the fit saved: the same files (the delay and the
+    # pending inputs come from the file's labels)
+    res = CliRunner().invoke(app, ["export-c", str(tmp_path / "s.npz"), "--out",
+                                   str(tmp_path / "c2"), "--name", "fir",
+                                   *(["--float32"] if dtype == "float32" else [])])
+    assert res.exit_code == 0, res.output
+    for f in ("fir.h", "fir.c"):
+        assert (tmp_path / "c2" / f).read_text() == (cdir / f).read_text()
