@@ -263,6 +263,11 @@ def test_delay_refusals(tmp_path):
         codegen.to_c(est, tmp_path, nk=1, pending=[np.nan])
     with pytest.raises(ValueError, match="FastRLS"):
         codegen.to_c(adaptid.RLS(2), tmp_path, nk=1)
+    with pytest.raises(ValueError, match="float32"):
+        codegen.to_c(adaptid.FastRLS(2, method="lattice", theta0=[1e39, 0.0]), tmp_path,
+                     dtype="float32")
+    with pytest.raises(ValueError, match="pending"):
+        codegen.to_c(adaptid.FastRLS(2), tmp_path, nk=1, pending=[1e39], dtype="float32")
     with pytest.raises(ValueError, match="single-stream"):
         est.run_batched(np.zeros((2, 4, 3)), np.zeros((2, 4)))
         codegen.to_c(est, tmp_path)

@@ -238,13 +238,19 @@ def delay_parts(name, nk, pending, dtype):
             "update_doc": "u_k enters the NK buffer,\n *       u_(k-NK) the line;"}
 
 
+def fits_float32(values):
+    """True when every value stays finite rounded to float32 (no overflow warning)."""
+    with np.errstate(over="ignore"):
+        return bool(np.all(np.isfinite(np.asarray(values).astype(np.float32))))
+
+
 def check_state(est, dtype):
     """The float64 state of a single-stream FastRLS (refusals name ``est``)."""
     st = est.get_state()
     if st["batch"] is not None:
         raise param_error("est", "a single-stream FastRLS", "<a batch of streams>")
     S = np.asarray(st["state"], dtype=np.float64)
-    if dtype == "float32" and not np.all(np.isfinite(S.astype(np.float32))):
+    if dtype == "float32" and not fits_float32(S):
         raise param_error("est", "a state within the float32 range for dtype='float32'",
                           "<values beyond float32>")
     return st, S
@@ -255,7 +261,7 @@ def generate(est, name, dtype, nk=0, pending=None):
     :mod:`._fastlattice`), with an input delay of ``nk`` samples."""
     dtype = check_choice(dtype, "dtype", DTYPES)
     nk, pending = check_delay(nk, pending)
-    if dtype == "float32" and not np.all(np.isfinite(pending.astype(np.float32))):
+    if dtype == "float32" and not fits_float32(pending):
         raise param_error("pending", "values within the float32 range for dtype='float32'",
                           "<values beyond float32>")
     if est.method == "lattice":
