@@ -32,10 +32,10 @@ in double and 1e-5 in float (the float32 rounding of γ near 1).
 
 from __future__ import annotations
 
-import numpy as np
-
 from .._validation import check_choice, param_error
-from . import _emit
+from . import _emit, _fastlattice
+from ._fastshared import (REGRESSOR_DOC, check_delay, check_state, delay_parts, fits_float32,
+                          subst)
 
 DTYPES = ("float64", "float32")
 #: rescue tolerance on γ − 1 per precision (a few thousand ulps of 1 in float32)
@@ -187,75 +187,6 @@ void $name_theta(const $name_t *s, real theta[$UPPER_N])
 """
 
 
-#: the header comment on the regressor and the entry points, shared by both methods
-REGRESSOR_DOC = r"""
-/* Regressor: phi_k = [v_k, v_(k-1), ..., v_(k-n+1)], the prewindowed delay line of
- * v_k = u_(k-NK) (NK = $UPPER_NK; v is zero before the first sample), the model
- * y_k = theta^T phi_k + e_k, theta[j] multiplying u_(k-NK-j).
- *   $name_update(s, u, y): the raw input u_k and the output y_k; $update_doc
- *       returns the a-priori error y_k - theta^T phi_k (theta before the
- *       update). A non-finite u or y: NaN returned, state untouched (u does
- *       not enter the line or the NK buffer), n_skipped + 1.
- *   $name_predict(s, u): theta^T phi of the next sample, u its raw input
- *       (with NK > 0 the line takes ubuf[0] and u is not used); nothing changes.
-$theta_doc */
-"""
-
-
-def _subst(text, values):
-    for key in sorted(values, key=len, reverse=True):
-        text = text.replace("$" + key, str(values[key]))
-    return text
-
-
-def check_delay(nk, pending):
-    """(nk, pending as float64 (nk,)): the input delay and the nk raw inputs not yet in
-    the line, oldest first (None: zeros, the prewindowed start)."""
-    from .._validation import as_float_array, check_int
-
-    nk = check_int(nk, "nk", low=0, high=10_000)
-    if pending is None:
-        return nk, np.zeros(nk)
-    return nk, as_float_array(pending, "pending", shape=(nk,))
-
-
-def delay_parts(name, nk, pending, dtype):
-    """Substitutions of the NK-sample input buffer (empty for nk = 0: no zero-size array)."""
-    if nk == 0:
-        return {"nk": 0, "ubuf_field": "", "ubuf_init": "", "delay_fn": "", "delay_call": "",
-                "vin": "u", "void_u": "", "update_doc": "u_k enters the line;"}
-    fn = (f"/* v_k = u_(k-NK): the oldest buffered input leaves, u enters the buffer. */\n"
-          f"static real delay({name}_t *s, real u)\n{{\n"
-          f"    real v = s->ubuf[0];\n    int i;\n"
-          f"    for (i = 0; i < {nk - 1}; i++) s->ubuf[i] = s->ubuf[i + 1];\n"
-          f"    s->ubuf[{nk - 1}] = u;\n    return v;\n}}\n")
-    return {"nk": nk,
-            "ubuf_field": f"    real ubuf[{name.upper()}_NK];  /* raw inputs not yet in the line, "
-                          "oldest first */\n",
-            "ubuf_init": _emit.array(pending, dtype) + ",\n",
-            "delay_fn": fn, "delay_call": "    u = delay(s, u);\n", "vin": "s->ubuf[0]",
-            "void_u": "    (void)u;\n",
-            "update_doc": "u_k enters the NK buffer,\n *       u_(k-NK) the line;"}
-
-
-def fits_float32(values):
-    """True when every value stays finite rounded to float32 (no overflow warning)."""
-    with np.errstate(over="ignore"):
-        return bool(np.all(np.isfinite(np.asarray(values).astype(np.float32))))
-
-
-def check_state(est, dtype):
-    """The float64 state of a single-stream FastRLS (refusals name ``est``)."""
-    st = est.get_state()
-    if st["batch"] is not None:
-        raise param_error("est", "a single-stream FastRLS", "<a batch of streams>")
-    S = np.asarray(st["state"], dtype=np.float64)
-    if dtype == "float32" and not fits_float32(S):
-        raise param_error("est", "a state within the float32 range for dtype='float32'",
-                          "<values beyond float32>")
-    return st, S
-
-
 def generate(est, name, dtype, nk=0, pending=None):
     """The texts (NAME.h, NAME.c) of a single-stream FastRLS (FTF here, the lattice in
     :mod:`._fastlattice`), with an input delay of ``nk`` samples."""
@@ -265,7 +196,6 @@ def generate(est, name, dtype, nk=0, pending=None):
         raise param_error("pending", "values within the float32 range for dtype='float32'",
                           "<values beyond float32>")
     if est.method == "lattice":
-        from . import _fastlattice
         return _fastlattice.generate(est, name, dtype, nk, pending)
     st, S = check_state(est, dtype)
     n, lam, delta = est.n_taps, est.forgetting, est.delta
@@ -274,16 +204,16 @@ def generate(est, name, dtype, nk=0, pending=None):
     scal = [_emit.literal(v, dtype) for v in S[5 * n: 5 * n + 3]]
     init = (",\n".join(blocks) + ",\n" + ", ".join(scal) + ",\n" + delay.pop("ubuf_init")
             + f"{int(st['n_updates'])}u, {int(st['n_skipped'])}u, {int(S[-1])}u")
-    doc = _subst(REGRESSOR_DOC, {"name": name, "UPPER": name.upper(), "theta_doc":
-                                 f" *   {name}_theta(s, theta): copies theta.\n",
-                                 "update_doc": delay.pop("update_doc")})
+    doc = subst(REGRESSOR_DOC, {"name": name, "UPPER": name.upper(), "theta_doc":
+                                f" *   {name}_theta(s, theta): copies theta.\n",
+                                "update_doc": delay.pop("update_doc")})
     values = {"name": name, "UPPER": name.upper(), "n": n, "lam": repr(lam),
               "lam_lit": _emit.literal(lam, dtype), "delta_lit": _emit.literal(delta, dtype),
               "lampow_lit": _emit.literal(lam ** (-float(n)), dtype),
               "gtol_lit": _emit.literal(GAMMA_TOL[dtype], dtype), "init": init,
               "regressor_doc": doc, **delay}
-    header = _emit.finish(_subst(_HEADER, values), dtype)
-    source = _emit.finish(_subst(_SOURCE, values), dtype)
+    header = _emit.finish(subst(_HEADER, values), dtype)
+    source = _emit.finish(subst(_SOURCE, values), dtype)
     return header, source
 
 
