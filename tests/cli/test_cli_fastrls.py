@@ -266,9 +266,6 @@ def test_export_c_compiles_and_continues_the_fit(record, tmp_path, dtype):
     (["--fir", "3", "--u", "u", "--delta", "-1"], ["--delta must be"]),
     (["--fir", "3", "--u", "u", "--forgetting", "1.5"], ["--forgetting must be"]),
     (["--fir", "3", "--u", "u", "--fastrls-method", "qr"], ["--fastrls-method must be"]),
-    (["--fir", "3", "--u", "u", "--fastrls-method", "lattice", "--export-c", "cdir"],
-     ["--export-c needs --fastrls-method ftf"]),
-    (["--fir", "3,1", "--u", "u", "--export-c", "cdir"], ["nk = 0"]),
     (["--fir", "3", "--u", "u", "--float32"], ["--float32 applies with --export-c"]),
     (["--fir", "3", "--u", "u", "--tracks", "x.txt"], ["--tracks"]),
 ])

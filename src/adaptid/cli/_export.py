@@ -18,28 +18,45 @@ __all__ = ["register", "export_c", "write_c"]
 
 def export_c(state_file: Path, out: Path, name: str = "rls", float32: bool = False):
     """Load ``state_file`` and write the C files; returns their paths. Errors: CLIError."""
-    from adaptid import load_state
+    from adaptid.estimators._statefile import load_state_labelled
 
     from ._targets import c_targets, check_targets
 
     check_targets([("STATE_FILE", state_file)], c_targets(out, name, "--out"))
     try:
-        est = load_state(state_file)
+        est, labels = load_state_labelled(state_file)
     except ValueError as err:  # StateFileError: unreadable, damaged, not a state file
         raise CLIError(str(err)) from None
-    return write_c(est, out, name, float32)
+    nk, pending = _fir_delay(est, labels, state_file)
+    return write_c(est, out, name, float32, nk=nk, pending=pending)
+
+
+def _fir_delay(est, labels, state_file):
+    """(nk, pending) of a FastRLS saved by ``adaptid fit --fir NB,NK``: its input delay and
+    the raw inputs not yet in its line, from the labels; else (0, None)."""
+    if (type(est).__name__ != "FastRLS" or labels is None
+            or labels.get("saved_by") != "adaptid fit"):
+        return 0, None
+    try:
+        nk = int(labels.get("delay_nk", "0"))
+        pending = [float.fromhex(x) for x in labels.get("pending_inputs", [])]
+    except (TypeError, ValueError):
+        raise CLIError(f"{state_file}: its labels delay_nk and pending_inputs are not an "
+                       "integer and hexadecimal floats") from None
+    return nk, pending
 
 
 def write_c(est, out: Path, name: str = "rls", float32: bool = False, option: str = "--out",
-            offsets=None):
+            offsets=None, nk=0, pending=None):
     """Write ``est``'s C files (:func:`adaptid.codegen.to_c`); returns their paths. Errors: CLIError.
 
-    ``est`` may be a model or a streaming model object (``offsets``: its y0, u0)."""
+    ``est`` may be a model or a streaming model object (``offsets``: its y0, u0), or a
+    FastRLS (``nk``, ``pending``: its input delay and the raw inputs not yet in its line)."""
     from adaptid.codegen import to_c
 
     try:
         return to_c(est, out, name=name, dtype="float32" if float32 else "float64",
-                    offsets=offsets)
+                    offsets=offsets, nk=nk, pending=pending)
     except (ValueError, TypeError) as err:
         raise CLIError(str(err)) from None
     except OSError as err:

@@ -123,13 +123,6 @@ def _check_values(spec, *, export_c, nk):
     m = spec.fastrls_method
     if m is not None and m not in FAST_METHODS:
         raise CLIError(f"--fastrls-method must be ftf or lattice, got {m!r}")
-    if export_c is not None and m == "lattice":
-        raise CLIError("--export-c needs --fastrls-method ftf (the C code is the fast "
-                       "transversal filter; the lattice has no generator)")
-    if export_c is not None and nk != 0:
-        raise CLIError(f"--export-c with --method fastrls needs nk = 0 (--fir NB,0; got nk = "
-                       f"{nk}): NAME_update takes the newest sample of the delay line, so "
-                       "delay the input in your code and fit on the delayed column")
 
 
 def _check(data, structure, spec, *, nan, out, save_state, resume, tracks, summary, export_c,
@@ -379,7 +372,7 @@ def _run_locked(data, structure, spec, *, nan, save_state, resume, output, track
     result = _result(table, fit, est, nan, rescues)
     result["elapsed_s"] = _time.perf_counter() - t0
     _outputs(result, fit, est, t, structure, tracks=tracks, export_c=export_c, c_name=c_name,
-             float32=float32)
+             float32=float32, pending=pending)
     _print(output, result, [fit], None)
     output.print(f"rescues: {rescues} · samples since the soft start: {est.n_updates}")
     if output.json:
@@ -395,8 +388,9 @@ def _run_locked(data, structure, spec, *, nan, save_state, resume, output, track
     return result
 
 
-def _outputs(result, fit, est, t, structure, *, tracks, export_c, c_name, float32):
-    """--tracks FILE (θ after every row, the a-priori error) and --export-c DIR (the FTF)."""
+def _outputs(result, fit, est, t, structure, *, tracks, export_c, c_name, float32, pending):
+    """--tracks FILE (θ after every row, the a-priori error) and --export-c DIR (the filter,
+    with the nk raw inputs ``pending`` in its input buffer)."""
     if tracks is not None:
         from ..io import write_table
         from ._modelfit import tracks_frame
@@ -411,4 +405,5 @@ def _outputs(result, fit, est, t, structure, *, tracks, export_c, c_name, float3
         from ._export import write_c
 
         result["export_c"] = [str(p) for p in write_c(est, export_c, c_name, float32,
-                                                      option="--export-c")]
+                                                      option="--export-c", nk=structure.fir[1],
+                                                      pending=pending)]

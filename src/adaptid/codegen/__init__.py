@@ -14,7 +14,7 @@ from ._generate import generate, write
 __all__ = ["to_c", "generate_c"]
 
 
-def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
+def to_c(est, directory, *, name="rls", dtype="float64", offsets=None, nk=0, pending=None):
     r"""Write ``NAME.h`` and ``NAME.c``: the estimator's recursion in C, from its current state.
 
     ``est`` may also be a model: a fitted :class:`~adaptid.models.ARX` /
@@ -99,8 +99,12 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
     ----------
     est : RLS, SlidingWindowRLS, KalmanRLS, LMS, NLMS, FastRLS; ARX, AR, RecursiveARX or RecursiveAR; NARX or RecursiveNARX
         Single stream and single output. A :class:`~adaptid.FastRLS`
-        (``method="ftf"``) gets its own interface, ``NAME_update(s, u, y)``
-        taking the new input sample (see :mod:`adaptid.codegen._fastrls`).
+        (either method) gets its own interface, ``NAME_update(s, u, y)``
+        taking the new raw input sample, ``NAME_predict(s, u)`` and, when θ
+        is held, ``NAME_theta`` (the lattice solves
+        :math:`R\theta = z` by back substitution on request; see
+        :mod:`adaptid.codegen._fastrls` and :mod:`adaptid.codegen._fastlattice`,
+        ``docs/models/fastrls.md``).
         A NARX predictor: ``NAME_step`` with its lag buffers
         (:mod:`adaptid.codegen._narx`). RLS forgetting: a constant λ (with or
         without ``P_max``), ``Exponential``, ``Directional``, ``ConstantTrace``
@@ -116,6 +120,14 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
         (``u0`` a number or one per input). Default: for an ARX / AR fitted
         on an :class:`~adaptid.models.IDData` detrended with ``"constant"``,
         the means it removed (a ValueError for a ``"linear"`` trend); else 0.
+    nk : int
+        :class:`~adaptid.FastRLS` only: an input delay of nk samples before the
+        delay line, :math:`\varphi_k = [v_k, \dots, v_{k-n+1}]^T` with
+        :math:`v_k = u_{k-n_k}`; the generated ``NAME_update`` takes the raw
+        :math:`u_k` and keeps the nk inputs not yet in the line.
+    pending : array_like, shape (nk,), optional
+        :class:`~adaptid.FastRLS` only: those nk raw inputs at export, oldest
+        first (default zeros: the prewindowed start).
 
     Returns
     -------
@@ -148,6 +160,10 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
     True
     """
     from ._model import generate_model, is_model
+    if (nk != 0 or pending is not None) and type(est).__name__ != "FastRLS":
+        from .._validation import param_error
+        raise param_error("nk", "0 (and pending None) except for a FastRLS (the input delay "
+                          "of its delay line)", nk)
     if is_model(est):
         from ._generate import write_texts
         texts = generate_model(est, name=name, dtype=dtype, offsets=offsets)
@@ -161,7 +177,7 @@ def to_c(est, directory, *, name="rls", dtype="float64", offsets=None):
         return write_narx(est, directory, name=name, dtype=dtype)
     if type(est).__name__ == "FastRLS":  # the delay-line filter: its own generator (issue 38)
         from . import _fastrls
-        return _fastrls.write(est, directory, name, dtype)
+        return _fastrls.write(est, directory, name, dtype, nk, pending)
     if not hasattr(est, "get_state"):
         from .._validation import param_error
         raise param_error("est", "an adaptid RLS, SlidingWindowRLS, KalmanRLS, LMS or NLMS",

@@ -489,11 +489,13 @@ class FastRLS:
                                  f"not a {cls.__name__}")
         return est
 
-    def to_c(self, directory, *, name="fir", dtype="float64"):
-        """Write ``NAME.h`` and ``NAME.c``: this FTF in C99, from its current state.
+    def to_c(self, directory, *, name="fir", dtype="float64", nk=0, pending=None):
+        r"""Write ``NAME.h`` and ``NAME.c``: this filter in C99, from its current state.
 
-        ``NAME_update(s, u, y)`` takes the new input sample and returns the
-        a-priori error; see :func:`adaptid.codegen.to_c`. ``method="ftf"`` only.
+        ``NAME_update(s, u, y)`` takes the new raw input sample and returns the
+        a-priori error; both methods (the lattice's ``NAME_theta`` solves
+        :math:`R\theta = z` on request, with ``track_theta=True``); see
+        :func:`adaptid.codegen.to_c`.
 
         Parameters
         ----------
@@ -501,6 +503,11 @@ class FastRLS:
         name : str
             C identifier: file names and the prefix of every symbol.
         dtype : {"float64", "float32"}
+        nk : int
+            Input delay: the line holds :math:`v_k = u_{k-n_k}` and the C code
+            keeps the nk raw inputs not yet in it.
+        pending : array_like, shape (nk,), optional
+            Those inputs at export, oldest first (zeros by default).
 
         Returns
         -------
@@ -508,7 +515,8 @@ class FastRLS:
             The header and the source file.
         """
         from ._hooks import upward
-        return upward("adaptid.codegen").to_c(self, directory, name=name, dtype=dtype)
+        return upward("adaptid.codegen").to_c(self, directory, name=name, dtype=dtype, nk=nk,
+                                              pending=pending)
 
     def __getstate__(self):
         return self.get_state()
