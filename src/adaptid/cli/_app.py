@@ -321,9 +321,10 @@ def fit(
                                                   "recursive option (--forgetting, --window, "
                                                   "--P0, --tracks, --export-c, --save-state, …) "
                                                   "is given; otherwise rls. fastrls: --fir "
-                                                  "only (FastRLS, O(n) per sample).",
+                                                  "with one --u (FastRLS, O(n) per sample).",
                                                   rich_help_panel="Method")] = None,
-    forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1] (rls, window).",
+    forgetting: Annotated[Optional[float], typer.Option("--forgetting", help="λ in (0, 1] (rls, window, "
+                                                        "fastrls).",
                                                         rich_help_panel="Method")] = None,
     window: Annotated[Optional[int], typer.Option("--window", help="Window length M (window).",
                                                   rich_help_panel="Method")] = None,
@@ -351,7 +352,9 @@ def fit(
                                      "(Python's nan_policy): stop with an error (raise; 'error' "
                                      "is accepted as the same) or skip them (counted).")] = "raise",
     out_dir: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for the HTML "
-                                                    "report (index.html and its figures).")] = None,
+                                                    "report (index.html and its figures; "
+                                                    "fastrls beyond 8 taps: a heat map of "
+                                                    "the tracks).")] = None,
     save_state: Annotated[Optional[Path], typer.Option("--save-state", help="Save the estimator's "
                                                        "state after the run.")] = None,
     resume: Annotated[Optional[Path], typer.Option("--resume", help="Continue from a saved state.")] = None,

@@ -34,6 +34,10 @@ the information matrix of the filter's cost, factored by a QR of the
 weighted rows (never formed), O(N n²) once. They are NaN (with a warning)
 after ``--resume`` (FastRLS holds no covariance and the earlier samples are
 not in this file) and when N·n² exceeds :data:`STDERR_MAX_WORK`.
+
+``--detrend``, ``--validate``, ``--summary`` and ``--out`` are those of
+``--method rls`` on the same FIR structure, through the same functions (see
+:mod:`._fastrls_workflow`).
 """
 
 from __future__ import annotations
@@ -54,6 +58,10 @@ FAST_METHODS = ("ftf", "lattice")
 STDERR_MAX_WORK = 5e9
 #: Rows of the weighted regression factored per QR step (memory O(rows · n)).
 QR_CHUNK = 4096
+#: Largest N·n for which the report stores θ after every sample without --tracks;
+#: beyond it θ is read at :data:`REPORT_TRACK_POINTS` chunk ends (the figure's resolution).
+FULL_TRACK_VALUES = 2e7
+REPORT_TRACK_POINTS = 2000
 _DELTA_RANGE = (1e-100, 1e100)
 
 
@@ -82,7 +90,7 @@ def wants_fastrls(spec, resume) -> bool:
 
 
 # ------------------------------------------------------------------ checks
-def _refuse_options(structure, spec, *, out, summary):
+def _refuse_options(structure, spec):
     """The options of ``fit`` that do not apply to the delay-line filter: one line each."""
     if structure.kind != "fir":
         raise CLIError("--method fastrls needs --fir NB[,NK] --u COL --y COL (a tapped delay "
@@ -94,13 +102,6 @@ def _refuse_options(structure, spec, *, out, summary):
         raise CLIError(f"--fir: nb must be >= 1 with --method fastrls, got {structure.fir[0]}")
     why = {
         "--intercept": (structure.intercept, "a constant regressor is not in the delay line"),
-        "--detrend": (structure.detrend is not None,
-                      "remove the offsets before, or use --method rls"),
-        "--validate": (structure.validate is not None, "use --method rls or batch for validation"),
-        "--summary": (summary, "FastRLS holds no covariance for the summary table; --json "
-                      "gives θ, stderr and σ²"),
-        "--out": (out is not None, "the report draws one panel per tap; use --tracks FILE "
-                  "and --json"),
         "--P0": (spec.P0 is not None, "the soft start is set by --delta (P0 = diag(λ^i)/δ)"),
     }
     for opt in ("--window", "--process-cov", "--noise-var", "--step", "--eps"):
@@ -125,24 +126,26 @@ def _check_values(spec, *, export_c, nk):
         raise CLIError(f"--fastrls-method must be ftf or lattice, got {m!r}")
 
 
-def _check(data, structure, spec, *, nan, out, save_state, resume, tracks, summary, export_c,
-           c_name, float32):
+def _check(data, structure, spec, *, nan, out, save_state, resume, tracks, export_c, c_name,
+           float32):
     """Every check before reading the data (the ones of ``run_fit`` for this path)."""
+    from ._fastrls_workflow import check_workflow
     from ._fit import NAN_WORDS, _check_extras, check_outputs
-    from ._targets import c_targets, check_targets
+    from ._targets import c_targets, check_targets, report_targets
 
     structure.check()
     if nan not in NAN_WORDS:
         raise CLIError(f"--nan must be raise or skip (error: the same as raise), got {nan!r}")
-    _refuse_options(structure, spec, out=out, summary=summary)
+    _refuse_options(structure, spec)
+    check_workflow(structure, export_c=export_c)
     _check_values(spec, export_c=export_c, nk=structure.fir[1])
     if float32 and export_c is None:
         raise CLIError("--float32 applies with --export-c DIR only")
     _check_extras(structure, spec, save_state=save_state, resume=resume, tracks=tracks,
                   export_c=export_c, c_name=c_name)
-    check_outputs(data, save_state=save_state, resume=resume)
+    check_outputs(data, out=out, save_state=save_state, resume=resume)
     check_targets([("DATA", data), ("--resume", resume)],
-                  [("--tracks", tracks), ("--save-state", save_state)]
+                  report_targets(out) + [("--tracks", tracks), ("--save-state", save_state)]
                   + c_targets(export_c, c_name), allowed={("--save-state", "--resume")})
 
 
@@ -202,6 +205,26 @@ def _fresh(spec, nb, nan_policy):
 
 
 # ------------------------------------------------------------------ statistics
+def delay_rows(v_full, n, n_before):
+    """The prewindowed regressors of this run, row k = φ_k (a read-only strided view).
+
+    ``v_full``: the ``n_before`` inputs already in the line (oldest first),
+    then the run's; zeros stand for the inputs before the soft start.
+    """
+    pad = np.concatenate([np.zeros(n - 1 - n_before), v_full]) if n_before < n - 1 \
+        else v_full[n_before - (n - 1):]
+    return np.lib.stride_tricks.sliding_window_view(pad, n)[:, ::-1]
+
+
+def weighted_residuals(v_full, y, theta, *, n_before, lam):
+    """``(r, c)``: the final θ's residuals on the run's regressors and c_k = λ^(N−k)."""
+    from scipy.signal import lfilter
+
+    N = y.shape[0]
+    r = y - lfilter(theta, [1.0], v_full)[n_before:]
+    return r, lam ** np.arange(N - 1, -1, -1, dtype=np.float64)
+
+
 def fastrls_theory(v_full, y, theta, *, n_before, lam, delta, total, want_se=True):
     r"""σ̂² and standard errors of the final θ by the one rule (see the module docstring).
 
@@ -211,19 +234,15 @@ def fastrls_theory(v_full, y, theta, *, n_before, lam, delta, total, want_se=Tru
     Returns ``(sigma2, stderr (n,))``; stderr NaN when ``want_se`` is False.
     """
     from scipy.linalg import qr, solve_triangular
-    from scipy.signal import lfilter
 
     n, N = theta.shape[0], y.shape[0]
-    r = y - lfilter(theta, [1.0], v_full)[n_before:]
-    c = lam ** np.arange(N - 1, -1, -1, dtype=np.float64)
+    r, c = weighted_residuals(v_full, y, theta, n_before=n_before, lam=lam)
     dof = float(c.sum()) - n
     sigma2 = float(np.sum(c * r * r) / dof) if dof > 0 else float("nan")
     se = np.full(n, np.nan)
     if not want_se or not math.isfinite(sigma2):
         return sigma2, se
-    pad = np.concatenate([np.zeros(n - 1 - n_before), v_full]) if n_before < n - 1 \
-        else v_full[n_before - (n - 1):]
-    rows = np.lib.stride_tricks.sliding_window_view(pad, n)[:, ::-1]   # row k = φ_k
+    rows = delay_rows(v_full, n, n_before)
     R = np.diag(np.sqrt(delta * lam ** (total - np.arange(n, dtype=np.float64))))
     sw = np.sqrt(c)
     for a in range(0, N, QR_CHUNK):
@@ -239,27 +258,6 @@ def fastrls_theory(v_full, y, theta, *, n_before, lam, delta, total, want_se=Tru
 
 
 # ------------------------------------------------------------------ the run
-def _signals(table, structure, nan):
-    """(u, y, complete-row mask, time, time name, u column name) of the record."""
-    from ._problem import _nan_check
-
-    col = table.expand(structure.u, "--u")
-    if len(col) != 1:
-        raise CLIError(f"--method fastrls takes one --u column (a single delay line), got "
-                       f"{len(col)}")
-    y = table.column(structure.y, "--y")
-    u = table.column(col[0], "--u")
-    if len(u) != len(y):
-        raise CLIError(f"{table.path}: --y column {structure.y!r} has {len(y)} rows, --u {len(u)}")
-    _nan_check(table, {structure.y: y, col[0]: u}, nan)
-    t = None
-    if structure.time is not None:
-        t = table.column(structure.time, "--time")
-        stamps = table.datetimes(structure.time)
-        t = stamps if stamps is not None else t
-    return u, y, np.isfinite(u) & np.isfinite(y), t, col[0]
-
-
 def _fill(values, ok, start):
     """Rows for every record row from the complete rows' ``values``: skipped rows carry
     the previous row (``start`` before the first), as a skipped sample leaves θ."""
@@ -271,8 +269,47 @@ def _fill(values, ok, start):
     return out
 
 
-def _fit(est, u, y, ok, pending, structure, names, *, tracks, fresh, output):
-    """Run the filter; (EquationFit, new pending inputs, n_rescues of the run)."""
+def _filter(est, v, y, *, store):
+    """run_fir over the line: ``(errors, θ rows, their positions in v, rescues)``.
+
+    ``store="all"``: θ after every sample (``--tracks``, or a report small
+    enough), positions None; ``"ends"``: θ read at up to
+    :data:`REPORT_TRACK_POINTS` chunk ends (a record cut in chunks equals one
+    pass), enough for the report's figure without an N × n array; None: no θ.
+    """
+    N = y.shape[0]
+    if store != "ends":
+        traj = est.run_fir(v, y, store_theta=store == "all")
+        return (traj.error, traj.theta if store == "all" else None, None,
+                int(traj.meta["n_rescues"]))
+    edges = np.unique(np.linspace(0, N, min(REPORT_TRACK_POINTS, max(N, 1)) + 1)
+                      .round().astype(np.int64))
+    errors, thetas, rescues = [], [], 0
+    for a, b in zip(edges[:-1], edges[1:]):
+        tr = est.run_fir(v[a:b], y[a:b], store_theta=False)
+        errors.append(tr.error)
+        thetas.append(est.theta)
+        rescues += int(tr.meta["n_rescues"])
+    return np.concatenate(errors), np.array(thetas).reshape(-1, est.n_taps), edges[1:] - 1, rescues
+
+
+def _stderr_warnings(fresh, work):
+    if not fresh:
+        return ["stderr is NaN after --resume: FastRLS holds no covariance and the samples "
+                "before this run are not in this file"]
+    if work > STDERR_MAX_WORK:
+        return [f"stderr not computed: N·n² = {work:.3g} exceeds {STDERR_MAX_WORK:.0e} "
+                "(a QR of the weighted regression, O(N n²)); θ and σ² are exact"]
+    return []
+
+
+def _fit(est, u, y, ok, pending, structure, names, *, tracks, report, fresh, output):
+    """Run the filter; (EquationFit, new pending inputs, n_rescues of the run, the line).
+
+    The line is what :mod:`._fastrls_workflow` needs of the run: the regressor
+    rows (a strided view), y and the complete-row mask, the final θ's
+    residuals r and factors c, and ``first_full``.
+    """
     from ._engine import EquationFit
 
     nb, nk = structure.fir
@@ -281,41 +318,43 @@ def _fit(est, u, y, ok, pending, structure, names, *, tracks, fresh, output):
     before = est.delay_line[::-1].copy()      # oldest first
     n_before, total = min(est.n_updates, nb - 1), est.n_updates + int(ok.sum())
     theta_start = est.theta
+    store = ("all" if tracks is not None or (report and ok.sum() * nb <= FULL_TRACK_VALUES)
+             else "ends" if report else None)
     with output.progress(len(y), "fitting (fastrls)") as advance:
-        traj = est.run_fir(v, y[ok], store_theta=tracks is not None)
+        e, th, at, rescues = _filter(est, v, y[ok], store=store)
         if advance is not None:
             advance(len(y))
     theta = est.theta
     err = np.full(len(y), np.nan)
-    err[ok] = traj.error
+    err[ok] = e
     work = float(ok.sum()) * nb * nb
-    caught = []
-    if not fresh:
-        caught.append("stderr is NaN after --resume: FastRLS holds no covariance and the "
-                      "samples before this run are not in this file")
-    elif work > STDERR_MAX_WORK:
-        caught.append(f"stderr not computed: N·n² = {work:.3g} exceeds {STDERR_MAX_WORK:.0e} "
-                      "(a QR of the weighted regression, O(N n²)); θ and σ² are exact")
-    rescues = int(traj.meta["n_rescues"])
+    caught = _stderr_warnings(fresh, work)
     if rescues:
         caught.append(f"{rescues} rescue(s) of the fast transversal filter: θ is no longer the "
                       "exact weighted least-squares solution (use --fastrls-method lattice)")
-    sigma2, se = fastrls_theory(np.concatenate([before[len(before) - n_before:], v]), y[ok],
-                                theta, n_before=n_before, lam=est.forgetting, delta=est.delta,
-                                total=total, want_se=fresh and work <= STDERR_MAX_WORK)
+    v_full = np.concatenate([before[len(before) - n_before:], v])
+    sigma2, se = fastrls_theory(v_full, y[ok], theta, n_before=n_before, lam=est.forgetting,
+                                delta=est.delta, total=total,
+                                want_se=fresh and work <= STDERR_MAX_WORK)
     used = err[np.isfinite(err)]
     warm = min(10 * nb, used.shape[0] // 2) if fresh else 0
     rms = float(np.sqrt(np.mean(used[warm:] ** 2))) if used[warm:].size else float("nan")
+    if th is None:   # an empty track without --tracks/--out: "a-priori error" in the title
+        track = np.empty((0, nb))
+    else:            # every record row, or θ at the chunk ends (the rows `ends`)
+        track = _fill(th, ok, theta_start) if at is None else th
     label = f"FastRLS {est.method} λ={est.forgetting:g} δ={est.delta:g}"
     fit = EquationFit(title="FIR", method="fastrls", label=label, names=list(names),
                       theta=theta, stderr=se, cov=np.diag(se * se), sigma2=sigma2,
                       n_samples=len(y), n_skipped=int((~ok).sum()), error=err,
                       index=np.arange(len(y)), estimator=est, rms_error=rms,
-                      # an empty track without --tracks: "a-priori error" in the printed title
-                      track=_fill(traj.theta, ok, theta_start) if tracks is not None
-                      else np.empty((0, nb)),
+                      track=track, ends=None if at is None else np.flatnonzero(ok)[at],
                       warnings=caught)
-    return fit, new_pending, rescues
+    r, c = weighted_residuals(v_full, y[ok], theta, n_before=n_before, lam=est.forgetting)
+    # first_full: the first complete row whose regressor holds no zero of the prewindow
+    line = types.SimpleNamespace(rows=delay_rows(v_full, nb, n_before), y=y[ok], ok=ok, r=r,
+                                 c=c, first_full=max(0, nb - 1 - n_before) + (nk if fresh else 0))
+    return fit, new_pending, rescues, line
 
 
 def _result(table, fit, est, nan, rescues) -> dict:
@@ -341,39 +380,43 @@ def run_fastrls(data, structure, spec, *, nan, out=None, save_state=None, resume
 
     t0 = _time.perf_counter()
     _check(data, structure, spec, nan=nan, out=out, save_state=save_state, resume=resume,
-           tracks=tracks, summary=summary, export_c=export_c, c_name=c_name, float32=float32)
+           tracks=tracks, export_c=export_c, c_name=c_name, float32=float32)
     with state_lock(save_state if save_state is not None else resume):
-        return _run_locked(data, structure, spec, nan=nan, save_state=save_state,
-                           resume=resume, output=output, tracks=tracks, export_c=export_c,
-                           c_name=c_name, float32=float32, t0=t0)
+        return _run_locked(data, structure, spec, nan=nan, out=out, save_state=save_state,
+                           resume=resume, output=output, tracks=tracks, summary=summary,
+                           export_c=export_c, c_name=c_name, float32=float32, t0=t0)
 
 
-def _run_locked(data, structure, spec, *, nan, save_state, resume, output, tracks, export_c,
-                c_name, float32, t0) -> dict:
+def _run_locked(data, structure, spec, *, nan, out, save_state, resume, output, tracks,
+                summary, export_c, c_name, float32, t0) -> dict:
     from ..io import read_table
+    from ._fastrls_workflow import finish, record
     from ._fit import _load_resume, _print
 
     policy = "skip" if nan == "skip" else "raise"
     nb, _ = structure.fir
     table = read_table(data, columns=structure.columns())
     output.detail(f"read {table.path} ({table.kind}): columns {', '.join(table.names[:20])}")
-    u, y, ok, t, col = _signals(table, structure, nan)
     names = [f"b{j}" for j in range(nb)]  # the FIR model's names (ARX(0, nb, nk).names)
+    problem, u, y, ok = record(table, structure, nan, names)
     if resume is not None:
         est, labels = _load_resume(resume)
         est, pending = _adopt(est, labels, structure, spec, names, policy, resume)
     else:
         est, pending = _fresh(spec, nb, policy), np.zeros(structure.fir[1])  # prewindowed
     fresh = resume is None
-    fit, pending, rescues = _fit(est, u, y, ok, pending, structure, names, tracks=tracks,
-                                 fresh=fresh, output=output)
+    fit, pending, rescues, line = _fit(est, u, y, ok, pending, structure, names, tracks=tracks,
+                                       report=out is not None, fresh=fresh, output=output)
     for w in fit.warnings:
         output.warn(f"FIR: {w}")
     result = _result(table, fit, est, nan, rescues)
     result["elapsed_s"] = _time.perf_counter() - t0
-    _outputs(result, fit, est, t, structure, tracks=tracks, export_c=export_c, c_name=c_name,
-             float32=float32, pending=pending)
-    _print(output, result, [fit], None)
+    rep, summ = finish(result, table, problem, structure, fit, line, out=out, summary=summary)
+    _outputs(result, fit, est, problem, structure, tracks=tracks, export_c=export_c,
+             c_name=c_name, float32=float32, pending=pending)
+    if rep is not None:
+        rep.commit()  # after the other outputs: a failure there leaves no report
+    _print(output, result, [fit], None, summ)
     output.print(f"rescues: {rescues} · samples since the soft start: {est.n_updates}")
     if output.json:
         output.emit_json(result)
@@ -388,16 +431,16 @@ def _run_locked(data, structure, spec, *, nan, save_state, resume, output, track
     return result
 
 
-def _outputs(result, fit, est, t, structure, *, tracks, export_c, c_name, float32, pending):
+def _outputs(result, fit, est, problem, structure, *, tracks, export_c, c_name, float32,
+             pending):
     """--tracks FILE (θ after every row, the a-priori error) and --export-c DIR (the filter,
     with the nk raw inputs ``pending`` in its input buffer)."""
     if tracks is not None:
         from ..io import write_table
         from ._modelfit import tracks_frame
 
-        where = types.SimpleNamespace(time=t, time_name=structure.time)
         try:
-            write_table(tracks_frame(where, [fit]), tracks, index=False)
+            write_table(tracks_frame(problem, [fit]), tracks, index=False)
         except ValueError as err:
             raise CLIError(f"--tracks: {err}") from None
         result["tracks"] = str(tracks)

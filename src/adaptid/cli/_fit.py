@@ -455,8 +455,13 @@ def _report_checks(rep, checks):
         rep.end()
 
 
-def _write_report(out, table, problem: Problem, fits: list, physical, result, checks=None):
-    """The report, staged (the caller commits it after the other outputs)."""
+def _write_report(out, table, problem: Problem, fits: list, physical, result, checks=None,
+                  tracks_figure=None):
+    """The report, staged (the caller commits it after the other outputs).
+
+    ``tracks_figure``: ``(Figure, caption)`` drawn instead of one panel per
+    parameter (``--method fastrls``: hundreds of taps, no P for a band).
+    """
     from ._report import Report, constancy_figure, constancy_verdict, errors_figure
 
     rep = Report(out, f"adaptid fit: {Path(table.path).name}",
@@ -481,7 +486,11 @@ def _write_report(out, table, problem: Problem, fits: list, physical, result, ch
     def xaxis(index):
         return problem.time[index] if use_time else index + 1.0
 
-    if fits[0].track is not None:
+    if tracks_figure is not None:
+        rep.section("Parameter tracks")
+        rep.figure("tracks.png", *tracks_figure)
+        rep.end()
+    elif fits[0].track is not None:
         from adaptid import plot
 
         fig, axes = plot.panel_axes(sum(len(f.names) for f in fits))
