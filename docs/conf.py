@@ -145,11 +145,11 @@ def _relink(text, base):
     def one(m):
         target = posixpath.normpath(posixpath.join(base, m.group(2)))
         if target in INCLUDED_FILES:
-            path = INCLUDED_FILES[target]
+            path = posixpath.relpath("docs/" + INCLUDED_FILES[target], base)
         elif target.startswith("docs/") and target.endswith(".md"):
-            path = target[len("docs/"):]
+            path = posixpath.relpath(target, base)  # MyST resolves from the page's folder
         else:
-            path = "path:../" + target
+            path = "path:" + posixpath.relpath(target, base)
         return m.group(1) + path + (m.group(3) or "") + m.group(4)
     return _LINK.sub(one, text)
 
