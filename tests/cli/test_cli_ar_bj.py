@@ -7,17 +7,15 @@ simulated records (scipy.signal.lfilter); adaptid.models.AR/ARMA/BJ as the Pytho
 CLI must agree with.
 """
 
-import json
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy import signal
-from typer.testing import CliRunner
 
 import adaptid
 from adaptid import models
-from adaptid.cli._app import app
+from ._helpers import run, run_json
 
 METHODS = {
     "rls": ([], {}),
@@ -26,14 +24,6 @@ METHODS = {
 }
 
 
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def run_json(*args):
-    r = run(*args, "--json")
-    assert r.exit_code == 0, r.output
-    return json.loads(r.stdout)
 
 
 @pytest.fixture(scope="module")

@@ -14,29 +14,19 @@ What the CLI must agree with, on the same CSV:
   compiled loop, the object's ``y - yhat`` in NumPy: rounding only).
 """
 
-import json
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy import signal
-from typer.testing import CliRunner
 
 import adaptid
 import adaptid.codegen
-from adaptid.cli._app import app
+from ._helpers import invoke, run_json
 from adaptid.estimators._statefile import save_state
 from adaptid.models import IDData, RecursiveAR, RecursiveARX
 
 
-def invoke(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def run_json(*args):
-    r = invoke(*args, "--json")
-    assert r.exit_code == 0, r.output
-    return json.loads(r.stdout)
 
 
 @pytest.fixture(scope="module")

@@ -10,29 +10,19 @@ run against FastRLS continued in Python.
 
 from __future__ import annotations
 
-import json
 import shutil
 import subprocess
 
 import numpy as np
 import pandas as pd
 import pytest
-from typer.testing import CliRunner
 
 import adaptid
-from adaptid.cli._app import app
+from ._helpers import invoke, run_json
 
 N = 2000
 
 
-def invoke(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def run_json(*args):
-    r = invoke(*args, "--json")
-    assert r.exit_code == 0, r.output
-    return json.loads(r.stdout)
 
 
 def one_line_error(res, *needles):

@@ -13,29 +13,19 @@ split, the offsets, the keys of the summary, the files of the report).
 
 from __future__ import annotations
 
-import json
 import re
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.signal import detrend, lfilter
-from typer.testing import CliRunner
 
 import adaptid
-from adaptid.cli._app import app
+from ._helpers import invoke, run_json
 
 N = 1500
 
 
-def invoke(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def run_json(*args):
-    r = invoke(*args, "--json")
-    assert r.exit_code == 0, r.output
-    return json.loads(r.stdout)
 
 
 def delayed(u, nk):

@@ -7,27 +7,17 @@ the options a user would write in Python (MATLAB's names: ``forgetting``,
 """
 
 import copy
-import json
 
 import numpy as np
 import pandas as pd
 import pytest
-from typer.testing import CliRunner
 
 from adaptid import IDData, models
-from adaptid.cli._app import app
+from ._helpers import run, run_json
 
 N = 240
 
 
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def run_json(*args):
-    r = run(*args, "--json")
-    assert r.exit_code == 0, r.output
-    return json.loads(r.stdout)
 
 
 def _frame(keys, seed=5):

@@ -9,17 +9,15 @@ MATLAB's NRMSE formula on a scipy.signal.lfilter simulation, pandas'
 own frequency of the time column, numpy means for the detrend offsets.
 """
 
-import json
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy import signal
-from typer.testing import CliRunner
 
 import adaptid
 from adaptid import IDData, models
-from adaptid.cli._app import app
+from ._helpers import run, run_json
 from adaptid.datasets import load_daisy
 from naive import rls_cost_minimiser
 
@@ -27,14 +25,6 @@ STAMP0 = np.datetime64("2024-01-01T00:00:00", "ns")
 DT = 0.08   # the dryer's sample time (DaISy: 0.08 s)
 
 
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def run_json(*args):
-    r = run(*args, "--json")
-    assert r.exit_code == 0, r.output
-    return json.loads(r.stdout)
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,6 @@ IDData, compare, resid, recursive_summary) is the second reference: the CLI must
 numbers on the same data.
 """
 
-import json
 import subprocess
 import shutil
 from pathlib import Path
@@ -23,19 +22,12 @@ from typer.testing import CliRunner
 import adaptid
 from adaptid import IDData, models
 from adaptid.cli._app import app
+from ._helpers import run, run_json
 from adaptid.datasets import load_daisy
 
 STAMP0 = np.datetime64("2024-01-01T00:00:00", "ns")
 
 
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def run_json(*args):
-    r = run(*args, "--json")
-    assert r.exit_code == 0, r.output
-    return json.loads(r.stdout)
 
 
 @pytest.fixture(scope="module")
