@@ -133,23 +133,27 @@ def write_api_pages():
         path.write_text(index)
 
 
-def _relink(text, base):
+def _relink(text, base, page_dir=None):
     """Rewrite the relative links of a markdown file at ``base`` for this site.
 
     The pages keep the links that work on GitHub (``../BENCHMARKS.md``,
     ``docs/guide.md`` from the root, ``../src/adaptid/io.py``); here a link to
     a page goes to that page, and a link to any other file of the repository
     becomes a download of that file (MyST's ``path:``), which fails the
-    build if the file does not exist.
+    build if the file does not exist. ``base`` is the folder the links are
+    written from, ``page_dir`` the folder of the page they are rendered in
+    (MyST resolves from there; another folder for an included file).
     """
+    page_dir = base if page_dir is None else page_dir
+
     def one(m):
         target = posixpath.normpath(posixpath.join(base, m.group(2)))
         if target in INCLUDED_FILES:
-            path = posixpath.relpath("docs/" + INCLUDED_FILES[target], base)
+            path = posixpath.relpath("docs/" + INCLUDED_FILES[target], page_dir)
         elif target.startswith("docs/") and target.endswith(".md"):
-            path = posixpath.relpath(target, base)  # MyST resolves from the page's folder
+            path = posixpath.relpath(target, page_dir)
         else:
-            path = "path:" + posixpath.relpath(target, base)
+            path = "path:" + posixpath.relpath(target, page_dir)
         return m.group(1) + path + (m.group(3) or "") + m.group(4)
     return _LINK.sub(one, text)
 
@@ -162,7 +166,8 @@ def _relink_page(app, docname, source):
 def _relink_included(app, relative_path, parent_docname, content):
     """The same for a file brought in by ``{include}`` (path relative to docs/)."""
     target = posixpath.normpath(posixpath.join("docs", Path(relative_path).as_posix()))
-    content[0] = _relink(content[0], posixpath.dirname(target))
+    content[0] = _relink(content[0], posixpath.dirname(target),
+                         posixpath.dirname("docs/" + parent_docname))
 
 
 def _defined_outside_adaptid(obj):
