@@ -29,6 +29,18 @@ def _compact(spec):
     return str(np.asarray(spec).tolist()).replace(" ", "")
 
 
+def _entry_polynomials(a, b, c, d, minimal, tol):
+    """Numerator and denominator (powers of z, highest first) of c(zI - a)⁻¹b + d."""
+    if minimal:
+        from ..statespace._minreal import minimal_realization
+
+        a, b, c, _ = minimal_realization(a, b, c, tol=tol)
+    if not a.size:
+        return np.array([d]), np.ones(1)
+    den = np.poly(a)
+    return np.poly(a - b @ c) + (d - 1.0) * den, den
+
+
 class MIMOARX(Responses, Presentation):
     r"""ARX model with several outputs and inputs: MATLAB's ``arx`` with order matrices.
 
@@ -342,18 +354,60 @@ class MIMOARX(Responses, Presentation):
                               f"<{ex.p} outputs, {ex.m} inputs>")
 
     # ------------------------------------------------------------ control
-    def realization(self):
-        r"""A (non-minimal) state-space realisation (F, G, H, D) of :math:`A^{-1}B`.
+    def realization(self, minimal=True, *, tol=None):
+        r"""A state-space realisation (F, G, H, D) of :math:`A^{-1}B`: minimal by default.
 
-        State :math:`x_k = [y_{k-1}; \dots; y_{k-L_a}; u_{k-1}; \dots; u_{k-L_b+1}]`,
+        ``minimal=False`` gives the block observer form: state
+        :math:`x_k = [y_{k-1}; \dots; y_{k-L_a}; u_{k-1}; \dots; u_{k-L_b+1}]`,
         :math:`y_k = Hx_k + Du_k` with :math:`H = [-A_1, \dots, -A_{L_a}, B_1,
-        \dots, B_{L_b-1}]`, :math:`D = B_0`, and F shifts the blocks.
+        \dots, B_{L_b-1}]`, :math:`D = B_0`, and F shifts the blocks;
+        :math:`n_y L_a + n_u(L_b - 1)` states, in general more than needed
+        (a decoupled MIMO model, orders that differ between entries, common
+        factors of A and B).
+
+        ``minimal=True`` (MATLAB's ``idss``/``ss`` of an ARX model followed
+        by ``minreal``) reduces that realisation by orthogonal
+        transformations: its controllable part by the controllability
+        staircase, then the observable part of that by the dual staircase
+        (Van Dooren 1981, sec. 3; Varga 1981; SLICOT TB01PD), see
+        :func:`adaptid.models.statespace._minreal.minimal_realization`.
+        The result has the Markov parameters of the model and as many
+        states as its McMillan degree, up to ``tol``. It is not in a
+        canonical form: the states are orthogonal combinations of the
+        observer form's.
+
+        Parameters
+        ----------
+        minimal : bool
+            Reduce to a minimal realisation (default True).
+        tol : float, optional
+            Relative tolerance of the rank decisions of the reduction
+            (default :math:`n^2\varepsilon`, n the observer form's order,
+            which removes exact cancellations only; e.g. ``1e-8`` also
+            removes near pole–zero cancellations of an estimated model).
 
         Returns
         -------
         tuple of ndarray
+            F (n, n), G (n, nu), H (ny, n), D (ny, nu).
+
+        References
+        ----------
+        P. Van Dooren (1981). The generalized eigenstructure problem in linear
+        system theory. *IEEE Trans. Automatic Control* 26(1), 111–129.
+        A. Varga (1981). Numerically stable algorithm for standard
+        controllability form determination. *Electronics Letters* 17(2), 74–75.
+        SLICOT Library, routine TB01PD.
         """
         self._check_fitted()
+        F, G, H, D = self._observer_form()
+        if not minimal:
+            return F, G, H, D
+        from ..statespace._minreal import minimal_realization
+
+        return minimal_realization(F, G, H, D, tol=tol)
+
+    def _observer_form(self):
         A, B = self._polymats()
         ny, nu = self._orders.ny, self._orders.nu
         La, Lb = A.shape[0] - 1, B.shape[0]
@@ -373,18 +427,30 @@ class MIMOARX(Responses, Presentation):
             F[o + nu:, o: o + nu * (Lb - 2)] = np.eye(nu * (Lb - 2))
         return F, G, H, D
 
-    def to_control(self, form="tf"):
+    def to_control(self, form="tf", *, minimal=True, tol=None):
         r"""The model :math:`G = A^{-1}B` as a discrete python-control system (dt, names).
 
         Parameters
         ----------
         form : {"tf", "ss"}
             ``"ss"``: :class:`control.StateSpace` of :meth:`realization`
-            (not necessarily minimal). ``"tf"``: a MIMO
-            :class:`control.TransferFunction`, entry (i, j) from the same
-            realisation by the matrix determinant lemma,
-            :math:`H_i(zI - F)^{-1}G_j = \det(zI - F + G_jH_i)/\det(zI - F) - 1`
-            (a common denominator, not cancelled).
+            (minimal unless ``minimal=False``). ``"tf"``: a MIMO
+            :class:`control.TransferFunction`; with ``minimal=True`` entry
+            (i, j) comes from the minimal realisation of the single-input
+            single-output system :math:`(F, G_{:,j}, H_{i,:}, D_{ij})`,
+            reduced again from the minimal realisation of the whole model,
+            so that it has no common pole–zero pairs (up to ``tol``); its
+            polynomials follow from that realisation (a, b, c, d) by the
+            matrix determinant lemma,
+            :math:`c(zI - a)^{-1}b = \det(zI - a + bc)/\det(zI - a) - 1`
+            (as :func:`scipy.signal.ss2tf`). ``minimal=False`` applies the
+            lemma to the observer form itself: one common denominator
+            :math:`\det(zI - F)` of degree :math:`n_yL_a + n_u(L_b - 1)`,
+            nothing cancelled.
+        minimal : bool
+            Start from the minimal realisation (default True).
+        tol : float, optional
+            Relative tolerance of the reductions (see :meth:`realization`).
 
         Returns
         -------
@@ -394,14 +460,17 @@ class MIMOARX(Responses, Presentation):
 
         check_choice(form, "form", ("tf", "ss"))
         control = _python_control()
-        F, G, H, D = self.realization()
+        F, G, H, D = self.realization(minimal=minimal, tol=tol)
         io = {"inputs": list(self.u_names), "outputs": list(self.y_names)}
         if form == "ss":
             return control.ss(F, G, H, D, self.dt, **io)
-        den = np.poly(F) if F.size else np.ones(1)
-        nums = [[np.poly(F - np.outer(G[:, j], H[i])) - den + D[i, j] * den if F.size
-                 else np.array([D[i, j]]) for j in range(G.shape[1])] for i in range(H.shape[0])]
-        dens = [[den] * G.shape[1] for _ in range(H.shape[0])]
+        nums, dens = [], []
+        for i in range(H.shape[0]):
+            nums.append([]), dens.append([])
+            for j in range(G.shape[1]):
+                num, den = _entry_polynomials(F, G[:, j:j + 1], H[i:i + 1], D[i, j],
+                                              minimal, tol)
+                nums[i].append(num), dens[i].append(den)
         return control.tf(nums, dens, self.dt, **io)
 
     def __repr__(self):
