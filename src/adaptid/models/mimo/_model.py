@@ -30,15 +30,37 @@ def _compact(spec):
 
 
 def _entry_polynomials(a, b, c, d, minimal, tol):
-    """Numerator and denominator (powers of z, highest first) of c(zI - a)⁻¹b + d."""
+    r"""Numerator and denominator (powers of z, highest first) of c(zI - a)⁻¹b + d.
+
+    The numerator is :math:`\det(zI - a + bc) + (d - 1)\det(zI - a)`; its
+    leading coefficients are :math:`d` and then, for d = 0, sums of the
+    Markov parameters :math:`h_k = ca^{k-1}b`. When d = 0 the coefficients
+    of the leading Markov parameters that are zero up to rounding
+    (:math:`|h_k| \le \mathrm{tol}\,\|c\|\|b\|\max(1, \|a\|)^{k-1}`,
+    tol as the reduction's, default :math:`n^2\varepsilon`) are set to zero,
+    so that delays do not leave spurious large zeros.
+    """
     if minimal:
         from ..statespace._minreal import minimal_realization
 
         a, b, c, _ = minimal_realization(a, b, c, tol=tol)
-    if not a.size:
+    n = a.shape[0]
+    if not n:
         return np.array([d]), np.ones(1)
     den = np.poly(a)
-    return np.poly(a - b @ c) + (d - 1.0) * den, den
+    num = np.poly(a - b @ c) + (d - 1.0) * den
+    if d == 0.0:
+        num[0] = 0.0
+        rel = n * n * np.finfo(float).eps if tol is None else tol
+        scale, na, cak = np.linalg.norm(c) * np.linalg.norm(b), max(1.0, np.linalg.norm(a)), c
+        for k in range(1, n + 1):
+            if abs((cak @ b).item()) > rel * scale * na ** (k - 1):
+                break
+            num[k] = 0.0
+            cak = cak @ a
+        num = np.trim_zeros(num, "f")
+        num = num if num.size else np.zeros(1)
+    return num, den
 
 
 class MIMOARX(Responses, Presentation):

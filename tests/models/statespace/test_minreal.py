@@ -1,0 +1,87 @@
+"""The orthogonal staircase reduction (models/statespace/_minreal.py) on systems
+built as a Kalman decomposition, whose controllable-and-observable part is known
+by construction, hidden by a random orthogonal change of coordinates."""
+
+import numpy as np
+import pytest
+from scipy.stats import ortho_group
+
+from adaptid.models.statespace._minreal import controllable_part, minimal_realization
+
+
+def _kalman_decomposition(rng, sizes, m=2, p=2):
+    """(A, B, C) in the coordinates (co, c-not-o, not-c-o, not-c-not-o), rotated.
+
+    Returns the rotated system and the co block's (A, B, C)."""
+    n_co, n_cno, n_nco, n_ncno = sizes
+    n = sum(sizes)
+    A = np.zeros((n, n))
+    i = np.cumsum([0] + list(sizes))
+    blocks = [slice(i[k], i[k + 1]) for k in range(4)]
+    co, cno, nco, ncno = blocks
+    for b in blocks:   # stable diagonal blocks with distinct eigenvalues
+        A[b, b] = np.diag(rng.uniform(-0.9, 0.9, b.stop - b.start)) + \
+            0.1 * np.triu(rng.standard_normal((b.stop - b.start,) * 2), 1)
+    # the couplings the decomposition allows (Kalman 1963's block pattern)
+    A[co, nco] = rng.standard_normal((n_co, n_nco))
+    A[cno, co] = rng.standard_normal((n_cno, n_co))
+    A[cno, nco] = rng.standard_normal((n_cno, n_nco))
+    A[cno, ncno] = rng.standard_normal((n_cno, n_ncno))
+    A[ncno, nco] = rng.standard_normal((n_ncno, n_nco))
+    B = np.zeros((n, m))
+    B[co] = rng.standard_normal((n_co, m))
+    B[cno] = rng.standard_normal((n_cno, m))
+    C = np.zeros((p, n))
+    C[:, co] = rng.standard_normal((p, n_co))
+    C[:, nco] = rng.standard_normal((p, n_nco))
+    Q = ortho_group.rvs(n, random_state=rng)
+    return (Q.T @ A @ Q, Q.T @ B, C @ Q), (A[co, co], B[co], C[:, co])
+
+
+def _markov(A, B, C, K):
+    out, X = [], B
+    for _ in range(K):
+        out.append(C @ X)
+        X = A @ X
+    return np.array(out)
+
+
+@pytest.mark.parametrize("sizes", [(3, 2, 2, 1), (4, 0, 0, 0), (2, 3, 0, 0), (1, 0, 3, 2),
+                                   (0, 2, 2, 1)])
+def test_minimal_part_of_a_kalman_decomposition(rng, sizes):
+    (A, B, C), (Aco, Bco, Cco) = _kalman_decomposition(rng, sizes)
+    Am, Bm, Cm, D = minimal_realization(A, B, C)
+    assert Am.shape == (sizes[0],) * 2 and D.shape == (2, 2) and not D.any()
+    np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(Am)),
+                               np.sort_complex(np.linalg.eigvals(Aco)), atol=1e-10)
+    K = 2 * A.shape[0]
+    np.testing.assert_allclose(_markov(Am, Bm, Cm, K), _markov(Aco, Bco, Cco, K), atol=1e-10)
+    np.testing.assert_allclose(_markov(Am, Bm, Cm, K), _markov(A, B, C, K), atol=1e-10)
+
+
+def test_controllable_part_keeps_the_controllable_states(rng):
+    sizes = (3, 2, 2, 1)
+    (A, B, C), _ = _kalman_decomposition(rng, sizes)
+    Ac, Bc, Cc = controllable_part(A, B, C)
+    assert Ac.shape == (5, 5)
+    ctrb = np.hstack([np.linalg.matrix_power(Ac, k) @ Bc for k in range(5)])
+    assert np.linalg.matrix_rank(ctrb) == 5
+
+
+def test_orthogonal_transformations_only(rng):
+    """Staircase reductions are orthogonal: with nothing to remove, A_m is similar to A
+    by an orthogonal matrix, so its singular values (not only its eigenvalues) are A's."""
+    (A, B, C), _ = _kalman_decomposition(rng, (4, 0, 0, 0))
+    Am, *_ = minimal_realization(A, B, C)
+    np.testing.assert_allclose(np.linalg.svd(Am, compute_uv=False),
+                               np.linalg.svd(A, compute_uv=False), rtol=1e-12)
+
+
+def test_bad_input_names_the_argument():
+    A, B, C = np.eye(2), np.ones((2, 1)), np.ones((1, 2))
+    for args, name in [((np.ones((2, 3)), B, C), "A"), ((A, np.ones((3, 1)), C), "B"),
+                       ((A, B, np.ones((1, 3))), "C"), ((A, B, C, np.ones((2, 2))), "D")]:
+        with pytest.raises(ValueError, match=f"^{name} must"):
+            minimal_realization(*args)
+    with pytest.raises(ValueError, match="^tol must"):
+        minimal_realization(A, B, C, tol=-1.0)
