@@ -85,3 +85,26 @@ def test_bad_input_names_the_argument():
             minimal_realization(*args)
     with pytest.raises(ValueError, match="^tol must"):
         minimal_realization(A, B, C, tol=-1.0)
+
+
+def test_state_space_model_minreal_keeps_the_noise_channel(rng):
+    """A state reached only by the innovations stays; unreachable and unseen ones go."""
+    from adaptid.models import StateSpaceModel
+
+    A = np.diag([0.5, -0.3, 0.7, 0.2])
+    A[0, 1] = 0.4
+    B = np.array([[1.0], [0.0], [0.0], [0.5]])    # state 2: from e only; state 3: from nothing
+    K = np.array([[0.1], [0.3], [0.0], [0.0]])
+    C = np.array([[1.0, 1.0, 2.0, 0.0]])           # state 4: unseen
+    Q = ortho_group.rvs(4, random_state=rng)
+    m = StateSpaceModel(Q.T @ A @ Q, Q.T @ B, C @ Q, [[0.2]], Q.T @ K, noise_cov=[[0.01]],
+                        dt=0.5, y_names="flow", u_names="valve")
+    r = m.minreal()
+    assert r.order == 2 and r.dt == 0.5 and r.y_names == ("flow",) and r.u_names == ("valve",)
+    np.testing.assert_allclose(np.sort(np.linalg.eigvals(r.A).real), [-0.3, 0.5], atol=1e-12)
+    np.testing.assert_allclose(r.markov(12), m.markov(12), atol=1e-12)
+    np.testing.assert_allclose(_markov(r.A, r.K, r.C, 12), _markov(m.A, m.K, m.C, 12),
+                               atol=1e-12)
+    y, u = rng.standard_normal((80, 1)), rng.standard_normal((80, 1))
+    np.testing.assert_allclose(r.predict(y, u, k=2), m.predict(y, u, k=2), atol=1e-12)
+    assert StateSpaceModel(A[:1, :1], B[:1], C[:, :1]).minreal().order == 1

@@ -492,6 +492,54 @@ class StateSpaceModel(StateSpacePresentation):
         return X @ C.T + U @ D.T
 
     # -------------------------------------------------------------- control
+    def minreal(self, tol=None):
+        r"""A minimal realisation of the model (MATLAB's ``minreal``), as a new model.
+
+        The states that neither the inputs nor the innovations reach, or
+        that the outputs do not see, are removed: the realisation
+        :math:`(A, [B\ K], C, [D\ I])` of the input and noise channels
+        together is reduced by orthogonal staircase transformations (its
+        controllable part, then the observable part of that; Van Dooren
+        1981, sec. 3; SLICOT TB01PD), see
+        :func:`adaptid.models.statespace._minreal.minimal_realization`.
+        Both the deterministic part and the predictor keep their Markov
+        parameters; ``noise_cov``, ``dt``, names and ``info`` are kept,
+        the parameter covariance is not (it belongs to the old coordinates).
+
+        Parameters
+        ----------
+        tol : float, optional
+            Relative tolerance of the rank decisions: a singular value
+            counts when it exceeds ``tol`` times the larger Frobenius norm
+            of A and [B K] (of A and C in the dual pass); default
+            :math:`n^2\varepsilon`, which removes exact redundancy only.
+
+        Returns
+        -------
+        StateSpaceModel
+
+        References
+        ----------
+        P. Van Dooren (1981). The generalized eigenstructure problem in linear
+        system theory. *IEEE Trans. Automatic Control* 26(1), 111–129.
+
+        Examples
+        --------
+        >>> from adaptid.models import StateSpaceModel
+        >>> m = StateSpaceModel([[0.5, 0.0], [0.0, 0.8]], [[1.0], [0.0]], [[1.0, 1.0]])
+        >>> m.minreal().order
+        1
+        """
+        from ._minreal import minimal_realization
+
+        m, p = self.n_inputs, self.n_outputs
+        A, BK, C, _ = minimal_realization(self.A, np.hstack([self.B, self.K]), self.C,
+                                          tol=tol)
+        return StateSpaceModel(A, BK[:, :m], C, self.D, BK[:, m:m + p],
+                               noise_cov=self.noise_cov, dt=self.dt, y_names=self.y_names,
+                               u_names=self.u_names, singular_values=self.singular_values,
+                               info=dict(self.info, minreal=True))
+
     def to_control(self):
         """The model as a discrete python-control ``StateSpace`` (A, B, C, D; dt; names).
 
