@@ -2,7 +2,7 @@
 
 Oracles the code under test did not produce: the McMillan degree as the
 rank (by SVD, here) of the block Hankel matrix of Markov parameters
-computed from the observer form by matrix powers; impulse responses by
+computed from the lagged-signal form (minimal=False) by matrix powers; impulse responses by
 the model's own simulation and by scipy's ``lfilter``; the transfer
 function entries of a 2×2 model as the polynomials of adj(A)B / det A
 written out by hand, with the cancellation done on paper; python-control's
@@ -84,7 +84,7 @@ def _check_minimal(m, expected_order, tol=None):
 def test_siso_order_is_max_of_na_and_nb_plus_nk_minus_one(na, nb, nk):
     m = _random_model([[na]], [[nb]], [[nk]], 1, 1, seed=na + 3 * nb + 7 * nk)
     full, _ = _check_minimal(m, max(na, nb + nk - 1))
-    assert full[0].shape[0] == na + nb + nk - 1  # the observer form's 1*La + 1*(Lb - 1)
+    assert full[0].shape[0] == na + nb + nk - 1  # the lagged-signal form's 1*La + 1*(Lb - 1)
     # impulse response of the SISO model by scipy's lfilter (A, B in powers of q^-1)
     a = np.r_[1.0, m.theta[:na]]
     b = np.r_[np.zeros(nk), m.theta[na:]]
@@ -93,7 +93,7 @@ def test_siso_order_is_max_of_na_and_nb_plus_nk_minus_one(na, nb, nk):
     np.testing.assert_allclose(_markov(Fm, Gm, Hm, Dm, 30)[:, 0, 0], imp, atol=1e-10)
 
 
-def test_decoupled_mimo_needs_fewer_states_than_the_observer_form():
+def test_decoupled_mimo_needs_fewer_states_than_the_lagged_signal_form():
     # y1: (1 - 0.9q^-1 + 0.2q^-2) y1 = 1.0 u1(k-1); y2: (1 - 0.5q^-1) y2 = (2u2(k-1) + 0.7u2(k-2))
     coeffs = {"a1_y1_y1": -0.9, "a2_y1_y1": 0.2, "b0_y1_u1": 1.0,
               "a1_y2_y2": -0.5, "b0_y2_u2": 2.0, "b1_y2_u2": 0.7}
@@ -205,7 +205,7 @@ def test_tf_entries_have_the_poles_and_zeros_of_the_cancelled_entries():
             np.testing.assert_allclose(tf[i, j](z), full[i, j](z), rtol=1e-9)
 
 
-def test_tf_entries_equal_scipy_ss2tf_of_the_observer_form():
+def test_tf_entries_equal_scipy_ss2tf_of_the_lagged_signal_form():
     pytest.importorskip("control")
     m = _triangular()
     tf = m.to_control("tf")

@@ -108,3 +108,28 @@ def test_state_space_model_minreal_keeps_the_noise_channel(rng):
     y, u = rng.standard_normal((80, 1)), rng.standard_normal((80, 1))
     np.testing.assert_allclose(r.predict(y, u, k=2), m.predict(y, u, k=2), atol=1e-12)
     assert StateSpaceModel(A[:1, :1], B[:1], C[:, :1]).minreal().order == 1
+
+
+def test_slicot_tb01pd_published_example():
+    """SLICOT-Reference examples/data/TB01PD.dat (N = 3, M = 1, P = 2, TOL = 0,
+    JOB = 'M', EQUIL = 'N') and examples/results/TB01PD.res (printed to 4
+    decimals): the system is already minimal (NR = 3). The printed realisation
+    is in SLICOT's own basis, so basis-free quantities are compared."""
+    A = np.array([[1.0, 2.0, 0.0], [4.0, -1.0, 0.0], [0.0, 0.0, 1.0]])
+    B = np.array([[1.0], [0.0], [1.0]])
+    C = np.array([[0.0, 1.0, -1.0], [0.0, 0.0, 1.0]])
+    Ar = np.array([[1.0, -1.4142, 1.4142], [-2.8284, 0.0, 1.0], [2.8284, 1.0, 0.0]])
+    Br = np.array([[-1.0], [0.7071], [0.7071]])
+    Cr = np.array([[0.0, 0.0, -1.4142], [0.0, 0.7071, 0.7071]])
+    Am, Bm, Cm, _ = minimal_realization(A, B, C)
+    assert Am.shape == (3, 3)
+    np.testing.assert_allclose(np.sort(np.linalg.eigvals(Am).real),
+                               np.sort(np.linalg.eigvals(Ar).real), atol=1e-3)
+    np.testing.assert_allclose(_markov(Am, Bm, Cm, 6), _markov(Ar, Br, Cr, 6), rtol=2e-3,
+                               atol=2e-3)
+    np.testing.assert_allclose(_markov(Am, Bm, Cm, 6), _markov(A, B, C, 6), atol=1e-12)
+    # with a fourth state that the outputs do not see appended, it is removed
+    A4 = np.zeros((4, 4))
+    A4[:3, :3], A4[3, 3] = A, 0.5
+    Am4, *_ = minimal_realization(A4, np.vstack([B, [[1.0]]]), np.hstack([C, np.zeros((2, 1))]))
+    assert Am4.shape == (3, 3)

@@ -379,7 +379,7 @@ class MIMOARX(Responses, Presentation):
     def realization(self, minimal=True, *, tol=None):
         r"""A state-space realisation (F, G, H, D) of :math:`A^{-1}B`: minimal by default.
 
-        ``minimal=False`` gives the block observer form: state
+        ``minimal=False`` gives the lagged-signal form: state
         :math:`x_k = [y_{k-1}; \dots; y_{k-L_a}; u_{k-1}; \dots; u_{k-L_b+1}]`,
         :math:`y_k = Hx_k + Du_k` with :math:`H = [-A_1, \dots, -A_{L_a}, B_1,
         \dots, B_{L_b-1}]`, :math:`D = B_0`, and F shifts the blocks;
@@ -391,12 +391,12 @@ class MIMOARX(Responses, Presentation):
         by ``minreal``) reduces that realisation by orthogonal
         transformations: its controllable part by the controllability
         staircase, then the observable part of that by the dual staircase
-        (Van Dooren 1981, sec. 3; Varga 1981; SLICOT TB01PD), see
+        (Van Dooren 1981; Varga 1981; SLICOT TB01PD), see
         :func:`adaptid.models.statespace._minreal.minimal_realization`.
         The result has the Markov parameters of the model and as many
         states as its McMillan degree, up to ``tol``. It is not in a
         canonical form: the states are orthogonal combinations of the
-        observer form's.
+        lagged-signal form's.
 
         Parameters
         ----------
@@ -404,7 +404,7 @@ class MIMOARX(Responses, Presentation):
             Reduce to a minimal realisation (default True).
         tol : float, optional
             Relative tolerance of the rank decisions of the reduction
-            (default :math:`n^2\varepsilon`, n the observer form's order,
+            (default :math:`n^2\varepsilon`, n the lagged-signal form's order,
             which removes exact cancellations only; e.g. ``1e-8`` also
             removes near pole–zero cancellations of an estimated model).
 
@@ -422,14 +422,14 @@ class MIMOARX(Responses, Presentation):
         SLICOT Library, routine TB01PD.
         """
         self._check_fitted()
-        F, G, H, D = self._observer_form()
+        F, G, H, D = self._lag_realization()
         if not minimal:
             return F, G, H, D
         from ..statespace._minreal import minimal_realization
 
         return minimal_realization(F, G, H, D, tol=tol)
 
-    def _observer_form(self):
+    def _lag_realization(self):
         A, B = self._polymats()
         ny, nu = self._orders.ny, self._orders.nu
         La, Lb = A.shape[0] - 1, B.shape[0]
@@ -466,7 +466,7 @@ class MIMOARX(Responses, Presentation):
             matrix determinant lemma,
             :math:`c(zI - a)^{-1}b = \det(zI - a + bc)/\det(zI - a) - 1`
             (as :func:`scipy.signal.ss2tf`). ``minimal=False`` applies the
-            lemma to the observer form itself: one common denominator
+            lemma to the lagged-signal form itself: one common denominator
             :math:`\det(zI - F)` of degree :math:`n_yL_a + n_u(L_b - 1)`,
             nothing cancelled.
         minimal : bool

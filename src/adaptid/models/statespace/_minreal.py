@@ -5,8 +5,8 @@ A realisation (A, B, C, D) of a discrete transfer matrix
 observable; its order is then the McMillan degree of G. The reduction is
 done with orthogonal similarity transformations only, in two passes:
 
-1. **Controllable part** — the controllability staircase (Van Dooren 1981,
-   sec. 3; Varga 1981, sec. 2; SLICOT TB01UD). With :math:`R_1 = B`,
+1. **Controllable part** — the controllability staircase (Van Dooren 1981;
+   Varga 1981; SLICOT TB01UD). With :math:`R_1 = B`,
    step i takes the SVD :math:`R_i = U_i\Sigma_iV_i^\mathsf T` of the
    block still to be reduced, decides its rank :math:`r_i` (the singular
    values above the tolerance), and applies :math:`U_i` to the trailing
@@ -68,7 +68,7 @@ def _threshold(A, B, tol):
 def controllable_part(A, B, C, tol=None):
     r"""The controllable subsystem :math:`(A_c, B_c, C_c)` by the orthogonal staircase.
 
-    See the module notes for the algorithm (Van Dooren 1981, sec. 3;
+    See the module notes for the algorithm (Van Dooren 1981;
     SLICOT TB01UD) and the rank rule.
 
     Parameters
@@ -111,7 +111,7 @@ def minimal_realization(A, B, C, D=None, *, tol=None):
 
     The controllable part (orthogonal controllability staircase), then the
     observable part of that (the staircase on the dual system); see the
-    module notes (Varga 1981; Van Dooren 1981, sec. 3). The result has the
+    module notes (Varga 1981; Van Dooren 1981). The result has the
     same Markov parameters :math:`D, CB, CAB, \dots` and, up to the
     tolerance, as many states as the McMillan degree of the transfer matrix.
 

@@ -500,7 +500,7 @@ class StateSpaceModel(StateSpacePresentation):
         :math:`(A, [B\ K], C, [D\ I])` of the input and noise channels
         together is reduced by orthogonal staircase transformations (its
         controllable part, then the observable part of that; Van Dooren
-        1981, sec. 3; SLICOT TB01PD), see
+        1981; SLICOT TB01PD), see
         :func:`adaptid.models.statespace._minreal.minimal_realization`.
         Both the deterministic part and the predictor keep their Markov
         parameters; ``noise_cov``, ``dt``, names and ``info`` are kept,
