@@ -128,7 +128,7 @@ class StateSpaceModel(StateSpacePresentation):
         Models from :func:`~adaptid.models.n4sid` and :func:`~adaptid.models.okid`
         compute it on first use from their estimation data
         (:meth:`estimate_cov`, the predictor's initial state estimated; a
-        Dask record is read chunk by chunk, twice);
+        Dask record is read chunk by chunk, three times);
         a model built from matrices has none unless ``cov`` was given.
         """
         data = self._fit_data if self._fit_data is not None else self._fit_dask
@@ -174,17 +174,17 @@ class StateSpaceModel(StateSpacePresentation):
         The memory does not grow with N: the Jacobian
         :math:`\tilde J` (N p rows, d + n·(experiments) columns) is never
         formed whole. The record is read in chunks of
-        :math:`N_c = \lfloor` ``max_memory`` :math:`/\,8p(d + n)\rfloor`
-        samples (at least 1) — one pass for :math:`\hat\Lambda` and the initial
-        states, one for the sensitivities, whose state is carried from chunk to
-        chunk — and the triangular factor R of :math:`\tilde J` is updated by a
-        QR of :math:`[R;\ \tilde J_c]` per chunk (equal to the QR of the whole
-        :math:`\tilde J` to rounding). A Dask record is read the same way.
+        :math:`N_c = \max(1, \lfloor M/8p(d + n)\rfloor)` samples,
+        M = ``max_memory`` — a pass for the initial states, one for
+        :math:`\hat\Lambda`, one for the sensitivities, whose state is carried
+        from chunk to chunk — and the triangular factor R of :math:`\tilde J` is
+        updated by a QR of :math:`[R;\ \tilde J_c]` per chunk (equal to the QR
+        of the whole :math:`\tilde J` to rounding). The Dask record of a model
+        fitted on Dask arrays (its :attr:`cov`) is read the same way.
 
         Parameters
         ----------
         data : IDData, (y, u) tuple, or a list of them
-            NumPy or Dask arrays (the latter read chunk by chunk, twice).
         x0 : {"estimate", "zero"}
         feedthrough : bool, optional
             Whether D is free (default: as estimated, ``info["feedthrough"]``,
@@ -194,7 +194,7 @@ class StateSpaceModel(StateSpacePresentation):
             float64 (default 32 MiB). The peak memory of the call is a few
             times this (the chunk's rows times the basis of the identifiable
             directions, whitened, then reduced in place) plus the record;
-            smaller is slower only through more, smaller QR steps.
+            smaller chunks cost only time (more, smaller steps).
 
         Returns
         -------

@@ -6,7 +6,10 @@ the one-step predictor's errors (AIC of an order range), the least-squares
 initial states, the fit percentages of the summary and the sensitivities of
 the parameter covariance. Each is the in-memory computation with its
 recursion carried over the chunks and its sums and QR reductions taken chunk
-by chunk: equal to rounding.
+by chunk: equal to rounding. The parameter covariance
+(``StateSpaceModel.estimate_cov``) takes these passes on in-memory records
+too, in chunks set by its ``max_memory``, so that its Jacobian is never
+held whole.
 """
 
 from __future__ import annotations
