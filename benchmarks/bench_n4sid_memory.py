@@ -8,6 +8,12 @@ whole (issue 34, point 5): its LQ factor comes from a QR of chunks of rows
 (in memory) or from Dask's tall-skinny QR over chunks of the record (Dask),
 and B, D, x0 and K from an ordered pass over chunks.
 
+It also measures ``model.estimate_cov`` (the parameter covariance behind the
+bands of ``freqresp``, ``step_response`` and ``poles``) on the same record:
+the whitened Jacobian of the one-step prediction errors, N × p × (d + n)
+(768 MB here), is reduced to its R factor chunk by chunk (``max_memory=``,
+32 MiB of Jacobian rows by default), in memory and on Dask alike.
+
 This script identifies the system of ``bench_n4sid.py`` (2 inputs, 2
 outputs, order 4, innovation sd 0.1) from N samples and reports, for the
 in-memory call and the Dask call (``--dask``, the record as Dask arrays in
@@ -34,6 +40,8 @@ import time
 import tracemalloc
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402 - after the thread setting
 
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -72,25 +80,35 @@ def main(argv=None):
     model, t_mem, peak_mem = measure(lambda: n4sid((y, u), 4, horizon=i))
     res = {"N": N, "horizon": i, "data_matrix_MB": matrix_mb, "record_MB": record_mb,
            "memory_s": t_mem, "memory_peak_MB": peak_mem,
-           "memory_error": pole_error(model.poles(), poles)}
+           "memory_error": pole_error(np.linalg.eigvals(model.A), poles)}
+    n, m, p = model.order, model.n_inputs, model.n_outputs
+    jac_mb = N * p * (n * n + n * m + p * n + p * m + n * p + n) * 8 / 1e6
+    cov, t_cov, peak_cov = measure(lambda: model.estimate_cov((y, u)))
+    res.update(jacobian_MB=jac_mb, cov_s=t_cov, cov_peak_MB=peak_cov)
     print(f"n4sid memory: N = {N}, 2 inputs, 2 outputs, order 4, horizon {i}")
     print(f"  data matrix 2i(m+p) x (N-2i+1): {matrix_mb:.0f} MB; the record (y, u): "
           f"{record_mb:.0f} MB (made before, not counted)")
     print(f"  in memory: {t_mem:.2f} s, peak {peak_mem:.0f} MB = "
           f"{peak_mem / matrix_mb:.3f} x the data matrix; eigenvalue error "
           f"{res['memory_error']:.2e}")
+    print(f"  estimate_cov in memory: {t_cov:.2f} s, peak {peak_cov:.0f} MB = "
+          f"{peak_cov / jac_mb:.3f} x the whole Jacobian N x p x (d+n) ({jac_mb:.0f} MB)")
     if args.dask:
         import dask.array as da
 
         yd = da.from_array(y, chunks=(args.chunk, y.shape[1]))
         ud = da.from_array(u, chunks=(args.chunk, u.shape[1]))
         dmodel, t_dask, peak_dask = measure(lambda: n4sid((yd, ud), 4, horizon=i))
-        same = pole_error(dmodel.poles(), model.poles())
+        dcov, t_dcov, peak_dcov = measure(lambda: dmodel.cov)    # from its Dask record
+        same = pole_error(np.linalg.eigvals(dmodel.A), np.linalg.eigvals(model.A))
         res.update(dask_s=t_dask, dask_peak_MB=peak_dask, dask_chunk=args.chunk,
-                   dask_vs_memory=same)
+                   dask_vs_memory=same, dask_cov_s=t_dcov, dask_cov_peak_MB=peak_dcov,
+                   dask_cov_vs_memory=float(np.abs(dcov - cov).max() / np.abs(cov).max()))
         print(f"  on Dask (chunks of {args.chunk} rows, threaded scheduler): {t_dask:.2f} s, "
               f"peak {peak_dask:.0f} MB = {peak_dask / matrix_mb:.3f} x the data matrix; "
               f"eigenvalues equal to the in-memory ones to {same:.1e}")
+        print(f"  estimate_cov on Dask: {t_dcov:.2f} s, peak {peak_dcov:.0f} MB; equal to the "
+              f"in-memory one to {res['dask_cov_vs_memory']:.1e} (relative to its largest entry)")
     if args.json:
         res.update(adaptid=adaptid.__version__, machine=platform.platform(),
                    date=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))

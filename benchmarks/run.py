@@ -176,8 +176,18 @@ def t_n4sid_memory(outs, jsons):
         rows.append((f"{r['N']}, {r['horizon']}", f"Dask, chunks of {r['dask_chunk']}",
                      f"{r['dask_s']:.1f}", f"{r['dask_peak_MB']:.0f}",
                      f"{r['dask_peak_MB'] / r['data_matrix_MB']:.2f}"))
-    return _table(("N, horizon", "n4sid", "time, s", "peak, MB",
-                   f"peak ÷ data matrix ({r['data_matrix_MB']:.0f} MB)"), rows)
+    table = _table(("N, horizon", "n4sid", "time, s", "peak, MB",
+                    f"peak ÷ data matrix ({r['data_matrix_MB']:.0f} MB)"), rows)
+    if "cov_s" not in r:
+        return table
+    cov = [(f"{r['N']}", "in memory", f"{r['cov_s']:.1f}", f"{r['cov_peak_MB']:.0f}",
+            f"{r['cov_peak_MB'] / r['jacobian_MB']:.3f}")]
+    if "dask_cov_s" in r:
+        cov.append((f"{r['N']}", f"Dask, chunks of {r['dask_chunk']}", f"{r['dask_cov_s']:.1f}",
+                    f"{r['dask_cov_peak_MB']:.0f}",
+                    f"{r['dask_cov_peak_MB'] / r['jacobian_MB']:.3f}"))
+    return table + [""] + _table(("N", "estimate_cov", "time, s", "peak, MB",
+                                    f"peak ÷ whole Jacobian ({r['jacobian_MB']:.0f} MB)"), cov)
 
 
 def t_frols(outs, jsons):
@@ -256,7 +266,7 @@ BENCHES = {
                    modules=("nfoursid", "pandas"), tools=()),
     "n4sid_memory": Bench("bench_n4sid_memory.py", [({}, ["--dask", "--json", "{json}"])],
                           t_n4sid_memory,
-                          "n4sid peak memory at N = 10⁶ (horizon 10), in memory and on Dask",
+                          "n4sid and estimate_cov peak memory at N = 10⁶, in memory and on Dask",
                           smoke=[["--n", "3000", "--chunk", "1000", "--dask", "--json", "{json}"]],
                           modules=("dask",), tools=()),
 

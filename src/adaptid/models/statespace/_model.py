@@ -128,7 +128,7 @@ class StateSpaceModel(StateSpacePresentation):
         Models from :func:`~adaptid.models.n4sid` and :func:`~adaptid.models.okid`
         compute it on first use from their estimation data
         (:meth:`estimate_cov`, the predictor's initial state estimated; a
-        Dask record is read chunk by chunk, twice);
+        Dask record is read chunk by chunk, three times);
         a model built from matrices has none unless ``cov`` was given.
         """
         data = self._fit_data if self._fit_data is not None else self._fit_dask
@@ -147,7 +147,7 @@ class StateSpaceModel(StateSpacePresentation):
 
         return n_params(self.order, self.n_inputs, self.n_outputs)
 
-    def estimate_cov(self, data, *, x0="estimate", feedthrough=None):
+    def estimate_cov(self, data, *, x0="estimate", feedthrough=None, max_memory=None):
         r"""Covariance of θ = [A, B, C, D, K] from the one-step prediction errors on ``data``.
 
         The prediction-error covariance of the full parameterisation at this
@@ -171,6 +171,17 @@ class StateSpaceModel(StateSpacePresentation):
         parameterisations). The predictor's initial state of each experiment
         is a nuisance parameter (least squares) unless ``x0="zero"``.
 
+        The memory does not grow with N: the Jacobian
+        :math:`\tilde J` (N p rows, d + n·(experiments) columns) is never
+        formed whole. The record is read in chunks of
+        :math:`N_c = \max(1, \lfloor M/8p(d + n)\rfloor)` samples,
+        M = ``max_memory`` — a pass for the initial states, one for
+        :math:`\hat\Lambda`, one for the sensitivities, whose state is carried
+        from chunk to chunk — and the triangular factor R of :math:`\tilde J` is
+        updated by a QR of :math:`[R;\ \tilde J_c]` per chunk (equal to the QR
+        of the whole :math:`\tilde J` to rounding). The Dask record of a model
+        fitted on Dask arrays (its :attr:`cov`) is read the same way.
+
         Parameters
         ----------
         data : IDData, (y, u) tuple, or a list of them
@@ -178,6 +189,12 @@ class StateSpaceModel(StateSpacePresentation):
         feedthrough : bool, optional
             Whether D is free (default: as estimated, ``info["feedthrough"]``,
             else whether D is non-zero).
+        max_memory : int, optional
+            Bytes for the Jacobian rows of one chunk, :math:`N_c\,p\,(d + n)`
+            float64 (default 32 MiB). The peak memory of the call is a few
+            times this (the chunk's rows times the basis of the identifiable
+            directions, whitened, then reduced in place) plus the record;
+            smaller chunks cost only time (more, smaller steps).
 
         Returns
         -------
@@ -193,14 +210,17 @@ class StateSpaceModel(StateSpacePresentation):
         *Proc. 36th IEEE CDC*, 2984–2989. :doi:`10.1109/CDC.1997.657907`.
         """
         from ..._validation import check_choice
-        from ._uncertainty import prediction_error_cov
+        from ._uncertainty import MAX_MEMORY, prediction_error_cov
 
         ex = data if isinstance(data, Experiments) else experiments(data)
         self._check_signals(ex)
         x0 = check_choice(x0, "x0", ("estimate", "zero"))
         if feedthrough is None:
             feedthrough = bool(self.info.get("feedthrough", np.any(self.D != 0)))
-        cov, _ = prediction_error_cov(self, ex, x0=x0, feedthrough=bool(feedthrough))
+        budget = MAX_MEMORY if max_memory is None else check_int(max_memory, "max_memory",
+                                                                 low=1)
+        cov, _ = prediction_error_cov(self, ex, x0=x0, feedthrough=bool(feedthrough),
+                                      max_memory=budget)
         return cov
 
     def poles(self):

@@ -6,7 +6,10 @@ the one-step predictor's errors (AIC of an order range), the least-squares
 initial states, the fit percentages of the summary and the sensitivities of
 the parameter covariance. Each is the in-memory computation with its
 recursion carried over the chunks and its sums and QR reductions taken chunk
-by chunk: equal to rounding.
+by chunk: equal to rounding. The parameter covariance
+(``StateSpaceModel.estimate_cov``) takes these passes on in-memory records
+too, in chunks set by its ``max_memory``, so that its Jacobian is never
+held whole.
 """
 
 from __future__ import annotations
@@ -129,16 +132,31 @@ def fit_percent_chunked(model, Y, U, rows=ROWS):
     return fit_s, fit_p, hi - lo > 0
 
 
+def _reduce(R, W):
+    r"""R factor of :math:`[R; W]`, k × k (R k × k upper triangular, W Fortran-ordered
+    with its first k rows free for R): one Householder QR (LAPACK ``dgeqrf``) in
+    place, so that a chunk costs no copy of its rows."""
+    k = R.shape[0]
+    W[:k] = R
+    qr, _, _, info = sla.lapack.dgeqrf(W, lwork=max(64 * k, 1), overwrite_a=True)
+    if info != 0:                                       # pragma: no cover - LAPACK argument error
+        raise RuntimeError(f"dgeqrf failed (info={info})")
+    return np.triu(qr[:k])
+
+
 def whitened_r(model, ex, x0s, free, Q, rows=ROWS):
     r"""(Λ̂, R) for the covariance of θ: R the triangular factor of :math:`\tilde J Q`.
 
-    Two passes: the prediction errors from ``x0s`` give
+    Two passes of ``rows`` samples at a time, on an in-memory record as on a
+    Dask one: the prediction errors from ``x0s`` give
     :math:`\hat\Lambda = \frac1N\sum\varepsilon_k\varepsilon_k^\mathsf T`; then the
     compiled sensitivity recursion (its state x̂, S carried in place from one
-    chunk to the next) gives the rows :math:`\psi_k`, whitened by
-    :math:`\hat\Lambda^{-1/2}`, restricted to the ``free`` parameters,
-    times Q and reduced by QR chunk by chunk. R is None when Λ̂ is singular
-    (no prediction error: no uncertainty).
+    chunk to the next) gives the rows :math:`\psi_k` of a chunk, restricted to
+    the ``free`` parameters, times Q and whitened by :math:`\hat\Lambda^{-1/2}`,
+    and R is updated by a QR of :math:`[R; \tilde\psi Q]` (k × k, k the
+    columns of Q). The whole Jacobian (N p rows) is never held: the memory is
+    a few chunks of rows whatever N. R is None when Λ̂ is singular (no
+    prediction error: no uncertainty).
     """
     A, B, C, D, K = model.A, model.B, model.C, model.D, model.K
     n, p = model.order, model.n_outputs
@@ -149,20 +167,27 @@ def whitened_r(model, ex, x0s, free, Q, rows=ROWS):
         return Lam, None
     T = (V / np.sqrt(w)).T
     d = free.size - n * len(ex.Y)
+    k = Q.shape[1]
+    Qf = np.zeros((free.size, k))
+    Qf[free] = Q                                        # fixed parameters: zero rows
     c = np.ascontiguousarray
     Abar, Bbar = c(A - K @ C), c(B - K @ D)
-    R = np.zeros((0, Q.shape[1]))
+    R = np.zeros((k, k))
     for e, (Y, U) in enumerate(zip(ex.Y, ex.U)):
+        # ψ (θ and this experiment's x̂₀ columns) times the matching rows of Q
+        Qe = c(np.vstack([Qf[:d], Qf[d + e * n: d + (e + 1) * n]]))
         x = np.array(x0s[e], dtype=np.float64)
         S = np.zeros((n, d + n))
         S[:, d:] = np.eye(n)
         for _, Yc, Uc in _chunks(Y, U, rows):
-            E = np.empty((Yc.shape[0], p))
-            Jb = np.empty((Yc.shape[0], p, d + n))
+            r = Yc.shape[0]
+            E = np.empty((r, p))
+            Jb = np.empty((r, p, d + n))
             predictor_sensitivity(Abar, Bbar, c(K), c(C), c(D), c(Yc), c(Uc), x, S, E, Jb)
-            J = np.zeros((Yc.shape[0], p, free.size))
-            J[:, :, :d] = Jb[:, :, :d]
-            J[:, :, d + e * n: d + (e + 1) * n] = Jb[:, :, d:]
-            J = np.einsum("ij,kjc->kic", T, J[:, :, free]).reshape(-1, int(free.sum()))
-            R = sla.qr(np.vstack([R, J @ Q]), mode="r", check_finite=False)[0][:Q.shape[1]]
+            JQ = (Jb.reshape(r * p, d + n) @ Qe).reshape(r, p, k)
+            del Jb
+            W = np.empty((k + r * p, k), order="F")
+            np.matmul(T, JQ, out=W[k:].reshape(r, p, k))
+            del JQ
+            R = _reduce(R, W)
     return Lam, R

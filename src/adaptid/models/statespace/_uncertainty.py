@@ -22,7 +22,6 @@ from ..._kernels.layers._statespace import predictor_sensitivity
 from ..frequency._response import polar_sd
 from ..frequency._roots import Roots, roots_from_gradients
 from . import _passes as passes
-from ._signals import recurse
 
 sla = lazy("scipy.linalg")
 
@@ -31,6 +30,8 @@ __all__ = ["n_params", "prediction_error_cov", "freqresp_sd", "step_sd", "poles_
 
 #: relative cut-off of the singular values of the whitened Jacobian (pseudo-inverse)
 RCOND = 1e-10
+#: bytes of Jacobian rows N_c × p × (d + n) formed at a time (``max_memory`` default)
+MAX_MEMORY = 32 * 2**20
 
 
 def n_params(n, m, p):
@@ -78,18 +79,9 @@ def _similarity(A, B, C, K, x0s):
     return V
 
 
-def _predictor_x0(model, Y, U):
-    """Least-squares initial state of the one-step predictor (ε is affine in it)."""
-    A, C, K = model.A, model.C, model.K
-    n = A.shape[0]
-    Abar = A - K @ C
-    eps0 = Y - model.predict(Y, U, k=1)
-    Phi = C @ recurse(Abar, np.zeros((Y.shape[0], n, n)), np.eye(n))  # (N, p, n)
-    return np.linalg.lstsq(Phi.reshape(-1, n), eps0.reshape(-1), rcond=None)[0]
-
-
 def _sensitivities(model, Y, U, x0):
-    """Prediction errors (N, p) and their Jacobian (N, p, d + n) from the compiled recursion."""
+    """Prediction errors (N, p) and their Jacobian (N, p, d + n) from the compiled recursion,
+    whole (for tests; :func:`prediction_error_cov` reduces it chunk by chunk)."""
     A, B, C, D, K = model.A, model.B, model.C, model.D, model.K
     n, m, p = A.shape[0], B.shape[1], C.shape[0]
     d = n_params(n, m, p)
@@ -104,29 +96,13 @@ def _sensitivities(model, Y, U, x0):
     return E, J
 
 
-def _whitened_r(model, ex, x0s, free, Q):
-    r"""(Λ̂, R of :math:`\tilde JQ`) in memory; R is None when Λ̂ is singular."""
-    n, p = model.order, model.n_outputs
-    d = free.size - n * len(ex.Y)
-    errs, jacs = [], []
-    for e, (Y, U, xs) in enumerate(zip(ex.Y, ex.U, x0s)):
-        E, Jb = _sensitivities(model, Y, U, xs)
-        J = np.zeros((Y.shape[0], p, free.size))
-        J[:, :, :d] = Jb[:, :, :d]
-        J[:, :, d + e * n: d + (e + 1) * n] = Jb[:, :, d:]
-        errs.append(E)
-        jacs.append(J)
-    E = np.vstack(errs)
-    Lam = E.T @ E / E.shape[0]
-    w, U_ = np.linalg.eigh((Lam + Lam.T) / 2)
-    if w[-1] <= 0 or w[0] <= 1e-14 * w[-1]:
-        return Lam, None
-    J = np.concatenate(jacs).reshape(-1, p, free.size)[:, :, free]
-    J = np.einsum("ij,kjc->kic", (U_ / np.sqrt(w)).T, J).reshape(-1, int(free.sum()))
-    return Lam, sla.qr(J @ Q, mode="r", check_finite=False)[0][: Q.shape[1]]
+def chunk_rows(max_memory, n, p, d):
+    """Samples per chunk: the ψ of that many samples, rows × p × (d + n) float64, fit
+    ``max_memory`` bytes (at least one sample)."""
+    return max(1, int(max_memory) // (8 * p * (d + n)))
 
 
-def prediction_error_cov(model, ex, *, x0="estimate", feedthrough=True):
+def prediction_error_cov(model, ex, *, x0="estimate", feedthrough=True, max_memory=MAX_MEMORY):
     r"""First-order covariance of θ = [A, B, C, D, K] from the one-step prediction errors.
 
     With :math:`\psi_k = \partial\varepsilon_k/\partial\theta` (p × d, the
@@ -145,6 +121,10 @@ def prediction_error_cov(model, ex, *, x0="estimate", feedthrough=True):
     orthonormal basis of the complement of the similarity directions (the
     known null space) and the SVD of the R factor of :math:`\tilde JQ`
     (singular values below ``RCOND``·σ₁ dropped), never a product JᵀJ.
+    J is never held whole: the record is read in chunks of
+    ``chunk_rows`` samples (in memory as on Dask, ``_passes``): a
+    pass for Λ̂ and x̂₀, then one in which each chunk's rows of
+    :math:`\tilde JQ` update R by a QR of :math:`[R; \tilde J_cQ]`.
 
     Parameters
     ----------
@@ -155,6 +135,8 @@ def prediction_error_cov(model, ex, *, x0="estimate", feedthrough=True):
         parameters then enter θ as nuisance parameters) or zero.
     feedthrough : bool
         Whether D is a free parameter (else its rows and columns are zero).
+    max_memory : int
+        Bytes of Jacobian rows formed at a time (default ``MAX_MEMORY``).
 
     Returns
     -------
@@ -171,18 +153,15 @@ def prediction_error_cov(model, ex, *, x0="estimate", feedthrough=True):
         free[oD:oK] = False
     if not est:
         free[d:] = False
-    on_dask = any(hasattr(Y, "dask") for Y in ex.Y)     # read chunk by chunk (_passes)
-    x0s = [(passes.predictor_x0(model, Y, U) if on_dask else _predictor_x0(model, Y, U))
-           if est else np.zeros(n) for Y, U in zip(ex.Y, ex.U)]
+    rows = chunk_rows(max_memory, n, p, d)              # in memory or on Dask alike
+    x0s = [passes.predictor_x0(model, Y, U, rows) if est else np.zeros(n)
+           for Y, U in zip(ex.Y, ex.U)]
     V = _similarity(model.A, model.B, model.C, model.K, x0s)[free]
     Uv, sv, _ = np.linalg.svd(V, full_matrices=True)
     r = int(np.sum(sv > 1e-12 * max(sv[0], 1.0))) if sv.size else 0
     Q = Uv[:, r:]                                     # complement of the similarity directions
     cov = np.zeros((d, d))
-    if on_dask:
-        Lam, R = passes.whitened_r(model, ex, x0s, free, Q)
-    else:
-        Lam, R = _whitened_r(model, ex, x0s, free, Q)
+    Lam, R = passes.whitened_r(model, ex, x0s, free, Q, rows)
     if R is None:                                     # no prediction error: no uncertainty
         return cov, Lam
     _, s, Vt = sla.svd(R, full_matrices=False, check_finite=False)
