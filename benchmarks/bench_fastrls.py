@@ -24,10 +24,23 @@ the n's (1: linear in n, 2: quadratic). Before timing, the FTF's a-priori
 errors on the short record are checked against RLS's (≤ 1e-8 relative).
 Speed is never asserted.
 
+``--floor`` times, instead, the cost floor of one stage of the lattice at
+n = 256 in numba and in C (``benchmarks/c/lattice_floor.c``, gcc -O3
+-march=native -fno-math-errno): a square root and a reciprocal of n
+independent values (the lattice needs two per stage), one chain of
+rotations (each stage waits for the previous multiply-add), and the
+chained Givens rotation the lattice had before (square root and two
+divisions on the chain). Printed: ns per stage of each, and the floor of one
+stage of the lattice if every pass ran at the speed of its slowest part:
+the forward pass (fused with the previous joint process) one chain, the
+reflection pass max(its chain, one sqrt + reciprocal), the angle pass one
+sqrt + reciprocal.
+
 Usage::
 
     python benchmarks/bench_fastrls.py              # n = 16, 64, 256, 1024 (about a minute)
     python benchmarks/bench_fastrls.py --quick      # small records, 2 rounds
+    python benchmarks/bench_fastrls.py --floor      # the lattice's cost floor per stage
 """
 
 from __future__ import annotations
@@ -123,6 +136,116 @@ def measure(n, n_fast, n_slow, rounds):
     return t, check
 
 
+def floor_loops():
+    """The numba versions of benchmarks/c/lattice_floor.c's loops (the kernel's flags)."""
+    from numba import njit
+    from adaptid._config import NJIT
+
+    @njit(**NJIT)
+    def sqrt_recip(q, r, v, reps):
+        for _ in range(reps):
+            for i in range(q.shape[0]):
+                r[i] = np.sqrt(q[i])
+            for i in range(q.shape[0]):
+                v[i] = np.true_divide(1.0, r[i])
+
+    @njit(**NJIT)
+    def rot_chain(c, s, x, reps, ls):
+        acc = 0.0
+        for _ in range(reps):
+            f = 0.25
+            for i in range(x.shape[0]):
+                t = x[i] * ls
+                x[i] = s[i] * f + c[i] * t
+                f = c[i] * f - s[i] * t
+            acc += f
+        return acc
+
+    @njit(**NJIT)
+    def givens_chain(x, e, reps):
+        acc = 0.0
+        for _ in range(reps):
+            t, f = 1.0, 0.1
+            for i in range(x.shape[0] - 1, -1, -1):
+                h = np.sqrt(t * t + x[i] * x[i])
+                cc, ss = t / h, x[i] / h
+                a = e[i]
+                e[i] = cc * a - ss * f
+                f = cc * f + ss * a
+                t = h
+            acc += f + t
+        return acc
+    return sqrt_recip, rot_chain, givens_chain
+
+
+def c_floor_loops():
+    """benchmarks/c/lattice_floor.c compiled in this run; None without gcc."""
+    gcc = shutil.which("gcc")
+    if gcc is None:
+        return None
+    src = HERE / "c" / "lattice_floor.c"
+    h = hashlib.sha256(src.read_bytes()).hexdigest()[:12]
+    so = Path(tempfile.gettempdir()) / f"adaptid_lattice_floor_{h}_{os.getuid()}.so"
+    if not so.exists():
+        tmp = so.with_suffix(f".{os.getpid()}.tmp")
+        subprocess.run([gcc, "-O3", "-march=native", "-fno-math-errno", "-shared", "-fPIC",
+                        str(src), "-o", str(tmp), "-lm"], check=True)
+        os.replace(tmp, so)
+    lib = ctypes.CDLL(str(so))
+    dp, i, lg, d = ctypes.POINTER(ctypes.c_double), ctypes.c_int, ctypes.c_long, ctypes.c_double
+    lib.sqrt_recip.argtypes = [dp, dp, dp, i, lg]
+    lib.rot_chain.argtypes = [dp, dp, dp, i, lg, d]
+    lib.rot_chain.restype = d
+    lib.givens_chain.argtypes = [dp, dp, i, lg]
+    lib.givens_chain.restype = d
+
+    def p(a):
+        return a.ctypes.data_as(dp)
+    return (lambda q, r, v, reps: lib.sqrt_recip(p(q), p(r), p(v), q.shape[0], reps),
+            lambda c, s, x, reps, ls: lib.rot_chain(p(c), p(s), p(x), x.shape[0], reps, ls),
+            lambda x, e, reps: lib.givens_chain(p(x), p(e), x.shape[0], reps))
+
+
+FLOOR = ("sqrt + reciprocal, vectorised", "rotation chain (multiply-adds)",
+         "chained Givens (sqrt, 2 div)")
+
+
+def floor(n, reps, rounds):
+    """ns per stage of each loop of FLOOR, {name: (numba, C or None)}."""
+    rng = np.random.default_rng(0)
+    q = rng.random(n) + 0.5
+    ang = rng.random(n)
+    c, s = np.cos(ang), np.sin(ang)
+    x, e = 0.1 * rng.standard_normal(n), 0.01 * rng.standard_normal(n)
+    r, v = np.empty(n), np.empty(n)
+    args = ((q, r, v, reps), (c, s, x, reps, 0.9995), (x, e, reps))
+    nb, cl = floor_loops(), c_floor_loops()
+    out = {}
+    for k, name in enumerate(FLOOR):
+        fns = (nb[k], None if cl is None else cl[k])
+        out[name] = tuple(None if f is None else
+                          1e9 * best(lambda f=f: f(*args[k]), rounds) / (reps * n) for f in fns)
+    return out
+
+
+def print_floor(n, reps, rounds):
+    """The floor table and the floor of one stage: the forward pass (with the previous
+    joint process) is one chain; the reflection pass one chain beside one sqrt +
+    reciprocal per stage; the angle pass one sqrt + reciprocal per stage, no chain."""
+    res = floor(n, reps, rounds)
+    print(f"ns per stage at n = {n} (best of {rounds}):")
+    print()
+    print("| loop | numba | C (gcc -O3 -march=native -fno-math-errno) |")
+    print("|---|---|---|")
+    for name, (nb, c) in res.items():
+        print(f"| {name} | {nb:.2f} | {'–' if c is None else f'{c:.2f}'} |")
+    sr, ch = res[FLOOR[0]][0], res[FLOOR[1]][0]
+    fl = ch + max(ch, sr) + sr
+    print()
+    print(f"floor of one stage (numba): chain + max(chain, sqrt+recip) + sqrt+recip = "
+          f"{fl:.2f} ns; {n} stages: {n * fl:.0f} ns per sample")
+
+
 def slope(ns, costs):
     return float(np.polyfit(np.log(ns), np.log(costs), 1)[0])
 
@@ -133,7 +256,12 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="small records, 2 rounds")
     ap.add_argument("--json", help="write the figures to this file")
+    ap.add_argument("--floor", action="store_true",
+                    help="time the lattice's cost floor per stage (n = 256) instead")
     a = ap.parse_args(argv)
+    if a.floor:
+        print_floor(256, 20000, a.rounds)
+        return
     rounds = 2 if a.quick else a.rounds
     work_fast, work_slow = (2e6, 2e7) if a.quick else (2e7, 3e8)
     res = {}

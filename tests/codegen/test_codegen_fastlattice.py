@@ -286,6 +286,14 @@ def _givens(a, b):
     return a / h, b / h, h
 
 
+def _rotation(rp, r, b):
+    """cos, sin of a stage from r = sqrt(running sum of squares), by one reciprocal."""
+    if r == 0:
+        return r * 0 + 1, r * 0
+    inv = 1 / r
+    return rp * inv, b * inv
+
+
 def _lattice_oracle_step(L, uk, yr, ls):
     xf, ep, c, s, yq = L["xf"], L["ep"], L["c"], L["s"], L["yq"]
     n = len(xf)
@@ -298,20 +306,27 @@ def _lattice_oracle_step(L, uk, yr, ls):
     t = np.sqrt(f * f + efor * efor)
     f = f * ep[n] / t if t > 0 else f * 0
     L["efor"] = t
+    q, rp, u = t * t, t, t * 0
+    w = np.zeros(n + 1, dtype=xf.dtype)  # w[i] = sum of ep[j]^2, i <= j < n
     for i in range(n - 1, -1, -1):
-        cc, ss, r = _givens(t, xf[i])
-        ep[i + 1] = cc * ep[i] - ss * f
-        f = cc * f + ss * ep[i]
-        t = r
+        q = xf[i] * xf[i] + q
+        r = np.sqrt(q)
+        cc, ss = _rotation(rp, r, xf[i])
+        e = ep[i]
+        ep[i + 1] = cc * e - ss * f
+        f = cc * f + ss * e
+        if i < n - 1:
+            u = ep[i + 1] * ep[i + 1] + u
+            w[i + 1] = u
+        rp = r
     ep[0] = f
-    nrm = f * 0
+    w[0] = f * f + u
+    t = 1 - w[0]
+    t = t if t > 0 else t * 0
+    rr = np.sqrt(t + w)
     for i in range(n):
-        nrm = nrm + ep[i] * ep[i]
-    t = 1 - nrm
-    t = np.sqrt(t if t > 0 else t * 0)
-    ep[n] = t
-    for i in range(n - 1, -1, -1):
-        c[i], s[i], t = _givens(t, ep[i])
+        c[i], s[i] = _rotation(rr[i + 1], rr[i], ep[i])
+    ep[n] = rr[n]
     f = yr
     for i in range(n):
         t = yq[i] * ls

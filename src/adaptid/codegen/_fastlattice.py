@@ -97,26 +97,14 @@ void $name_init($name_t *s)
     memcpy(s, &INIT, sizeof INIT);
 }
 
-/* (c, s, r): c a + s b = r >= 0, -s a + c b = 0 (the kernel's _givens). */
-static void givens(real a, real b, real *c, real *s, real *r)
-{
-    real h = $sqrt(a * a + b * b);
-    if (h == 0.0) {
-        *c = 1.0;
-        *s = 0.0;
-        *r = 0.0;
-    } else {
-        *c = a / h;
-        *s = b / h;
-        *r = h;
-    }
-}
-
 /* One time update of the lattice with the input uk and the reference yr;
- * returns the a-priori error (the kernel's _lattice_step). */
+ * returns the a-priori error (the kernel's _forward, _reflect, _angles, _joint).
+ * A rotation of stage i has r_i = sqrt(Q_i), Q_i the running sum of squares,
+ * cos = r_(i+1) / r_i and sin = b / r_i by one reciprocal (r_i = 0: cos 1, sin 0). */
 static real lattice($name_lattice_t *L, real uk, real yr)
 {
-    real f = uk, t, efor, cc, ss, r, nrm = 0.0;
+    real f = uk, t, efor, q, rp, r, inv, cc, ss, e, u = 0.0;
+    real w[N + 1], rr[N + 1];  /* w[i]: sum of eps_j^2 over i <= j < N */
     int i;
     for (i = 0; i < N; i++) {  /* forward prediction rotations */
         t = L->xf[i] * LS;
@@ -127,18 +115,45 @@ static real lattice($name_lattice_t *L, real uk, real yr)
     t = $sqrt(f * f + efor * efor);
     f = t > 0.0 ? f * L->epsbck[N] / t : 0.0;
     L->efor = t;
+    q = t * t;
+    rp = t;
+    w[N] = 0.0;
     for (i = N - 1; i >= 0; i--) {  /* reflection coefficients, backward errors */
-        givens(t, L->xf[i], &cc, &ss, &r);
-        L->epsbck[i + 1] = cc * L->epsbck[i] - ss * f;
-        f = cc * f + ss * L->epsbck[i];
-        t = r;
+        q = L->xf[i] * L->xf[i] + q;
+        r = $sqrt(q);
+        if (r == 0.0) {
+            cc = 1.0;
+            ss = 0.0;
+        } else {
+            inv = 1.0 / r;
+            cc = rp * inv;
+            ss = L->xf[i] * inv;
+        }
+        e = L->epsbck[i];
+        L->epsbck[i + 1] = cc * e - ss * f;
+        f = cc * f + ss * e;
+        if (i < N - 1) {
+            u = L->epsbck[i + 1] * L->epsbck[i + 1] + u;
+            w[i + 1] = u;
+        }
+        rp = r;
     }
     L->epsbck[0] = f;
-    for (i = 0; i < N; i++) nrm += L->epsbck[i] * L->epsbck[i];
-    t = 1.0 - nrm;
-    t = $sqrt(t > 0.0 ? t : 0.0);
-    L->epsbck[N] = t;
-    for (i = N - 1; i >= 0; i--) givens(t, L->epsbck[i], &L->cteta[i], &L->steta[i], &t);
+    w[0] = f * f + u;
+    t = 1.0 - w[0];
+    t = t > 0.0 ? t : 0.0;
+    for (i = 0; i <= N; i++) rr[i] = $sqrt(t + w[i]);  /* rr[N]: sqrt(gamma) */
+    for (i = 0; i < N; i++) {  /* new rotation angles */
+        if (rr[i] == 0.0) {
+            L->cteta[i] = 1.0;
+            L->steta[i] = 0.0;
+        } else {
+            inv = 1.0 / rr[i];
+            L->cteta[i] = rr[i + 1] * inv;
+            L->steta[i] = L->epsbck[i] * inv;
+        }
+    }
+    L->epsbck[N] = rr[N];
     f = yr;
     for (i = 0; i < N; i++) {  /* joint process */
         t = L->yq[i] * LS;
@@ -175,6 +190,21 @@ $void_u    for (i = 1; i < N; i++) p += THETA0[i] * s->x[i - 1];
 """
 
 _TRACK_FNS = r"""
+/* (c, s, r): c a + s b = r >= 0, -s a + c b = 0 (the kernel's _givens). */
+static void givens(real a, real b, real *c, real *s, real *r)
+{
+    real h = $sqrt(a * a + b * b);
+    if (h == 0.0) {
+        *c = 1.0;
+        *s = 0.0;
+        *r = 0.0;
+    } else {
+        *c = a / h;
+        *s = b / h;
+        *r = h;
+    }
+}
+
 /* Rotate the row [phi_k, y_k] into (R, z) (the kernel's _qr_track, McWhirter 1983). */
 static void qr_track($name_t *s, real y)
 {
