@@ -130,8 +130,7 @@ def _check(data, structure, spec, *, nan, out, save_state, resume, tracks, expor
            float32):
     """Every check before reading the data (the ones of ``run_fit`` for this path)."""
     from ._fastrls_workflow import check_workflow
-    from ._fit import NAN_WORDS, _check_extras, check_outputs
-    from ._targets import c_targets, check_targets, report_targets
+    from ._fit import NAN_WORDS, check_files
 
     structure.check()
     if nan not in NAN_WORDS:
@@ -139,14 +138,8 @@ def _check(data, structure, spec, *, nan, out, save_state, resume, tracks, expor
     _refuse_options(structure, spec)
     check_workflow(structure, export_c=export_c)
     _check_values(spec, export_c=export_c, nk=structure.fir[1])
-    if float32 and export_c is None:
-        raise CLIError("--float32 applies with --export-c DIR only")
-    _check_extras(structure, spec, save_state=save_state, resume=resume, tracks=tracks,
-                  export_c=export_c, c_name=c_name)
-    check_outputs(data, out=out, save_state=save_state, resume=resume)
-    check_targets([("DATA", data), ("--resume", resume)],
-                  report_targets(out) + [("--tracks", tracks), ("--save-state", save_state)]
-                  + c_targets(export_c, c_name), allowed={("--save-state", "--resume")})
+    check_files(data, structure, spec, out=out, save_state=save_state, resume=resume,
+                tracks=tracks, export_c=export_c, c_name=c_name, float32=float32)
 
 
 # ------------------------------------------------------------------ state

@@ -116,6 +116,20 @@ def _check_extras(structure: Structure, spec: MethodSpec, *, save_state, resume,
             raise CLIError(f"--tracks: {err}") from None
 
 
+def check_files(data, structure, spec, *, out, save_state, resume, tracks, export_c, c_name,
+                float32):
+    """The file checks of every ``fit`` path, before anything is read or written: the
+    options that need another, the outputs' folders, and no output over an input."""
+    if float32 and export_c is None:
+        raise CLIError("--float32 applies with --export-c DIR only")
+    _check_extras(structure, spec, save_state=save_state, resume=resume, tracks=tracks,
+                  export_c=export_c, c_name=c_name)
+    check_outputs(data, out=out, save_state=save_state, resume=resume)
+    check_targets([("DATA", data), ("--resume", resume)],
+                  report_targets(out) + [("--tracks", tracks), ("--save-state", save_state)]
+                  + c_targets(export_c, c_name), allowed={("--save-state", "--resume")})
+
+
 def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
             save_state=None, resume=None, output: Output, tracks=None, summary=False,
             export_c=None, c_name="rls", float32=False) -> dict:
@@ -140,14 +154,8 @@ def run_fit(data, structure: Structure, spec: MethodSpec, *, nan: str, out=None,
     if structure.kind == "dc-motor" and (save_state is not None or resume is not None):
         raise CLIError("--save-state/--resume are not available with --dc-motor (two estimators "
                        "and filtered derivatives); use --y/--phi with the regressor columns")
-    if float32 and export_c is None:
-        raise CLIError("--float32 applies with --export-c DIR only")
-    _check_extras(structure, spec, save_state=save_state, resume=resume, tracks=tracks,
-                  export_c=export_c, c_name=c_name)
-    check_outputs(data, out=out, save_state=save_state, resume=resume)
-    check_targets([("DATA", data), ("--resume", resume)],
-                  report_targets(out) + [("--tracks", tracks), ("--save-state", save_state)]
-                  + c_targets(export_c, c_name), allowed={("--save-state", "--resume")})
+    check_files(data, structure, spec, out=out, save_state=save_state, resume=resume,
+                tracks=tracks, export_c=export_c, c_name=c_name, float32=float32)
     with state_lock(save_state if save_state is not None else resume):
         return _run_fit_locked(data, structure, spec, nan=nan, out=out, save_state=save_state,
                                resume=resume, output=output, tracks=tracks, summary=summary,
